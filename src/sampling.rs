@@ -1,0 +1,245 @@
+//! Warps from the unit square to the domains the path tracer samples, with their pdfs and
+//! inverses (the triples of Mitsuba's `core/warp.h` and pbrt-v4's `util/sampling.h`), plus a
+//! discrete distribution and the MIS power heuristic.
+//!
+//! Conventions: directions are in a local shading frame where the normal is +z; the pdf of a
+//! direction is per unit solid angle (sr⁻¹); the pdf of a point is per unit area.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// Cosine-weighted direction on the +z hemisphere (Malley's method over a concentric disk).
+#[inline]
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_concentric_disk(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+/// Solid-angle pdf of [`square_to_cosine_hemisphere`]: cos θ / π on the upper hemisphere.
+#[inline]
+pub fn square_to_cosine_hemisphere_pdf(w: Vec3) -> f32 {
+    if w.z > 0.0 { w.z * FRAC_1_PI } else { 0.0 }
+}
+
+/// Inverse of [`square_to_cosine_hemisphere`].
+#[inline]
+pub fn cosine_hemisphere_to_square(w: Vec3) -> Vec2 {
+    concentric_disk_to_square(Vec2::new(w.x, w.y))
+}
+
+/// Shirley–Chiu concentric map from [0,1)² to the unit disk.
+#[inline]
+pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, PI / 4.0 * (o.y / o.x))
+    } else {
+        (o.y, PI / 2.0 - PI / 4.0 * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// Inverse of [`square_to_concentric_disk`].
+#[inline]
+pub fn concentric_disk_to_square(p: Vec2) -> Vec2 {
+    let r = p.length();
+    let mut phi = p.y.atan2(p.x);
+    if phi < -PI / 4.0 {
+        phi += 2.0 * PI;
+    }
+    let (a, b) = if phi < PI / 4.0 {
+        (r, phi * a_inv(r))
+    } else if phi < 3.0 * PI / 4.0 {
+        (-(phi - PI / 2.0) * a_inv(r), r)
+    } else if phi < 5.0 * PI / 4.0 {
+        (-r, -(phi - PI) * a_inv(r))
+    } else {
+        ((phi - 3.0 * PI / 2.0) * a_inv(r), -r)
+    };
+    fn a_inv(r: f32) -> f32 {
+        4.0 * r / PI
+    }
+    Vec2::new(0.5 * (a + 1.0), 0.5 * (b + 1.0))
+}
+
+/// Uniform point on a triangle as barycentrics (b0, b1); b2 = 1 − b0 − b1. Area pdf 1/area.
+#[inline]
+pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+    let su = u.x.sqrt();
+    Vec2::new(1.0 - su, u.y * su)
+}
+
+/// Inverse of [`square_to_uniform_triangle`].
+#[inline]
+pub fn uniform_triangle_to_square(b: Vec2) -> Vec2 {
+    let su = 1.0 - b.x;
+    let uy = if su > 0.0 { b.y / su } else { 0.5 };
+    Vec2::new(su * su, uy)
+}
+
+/// Uniform direction on the unit sphere; pdf 1/(4π).
+#[inline]
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Veach's power heuristic with β = 2 for two strategies taking one sample each (Veach 1997,
+/// eq. 9.13): w_f = f² / (f² + g²). Returns 0 when both pdfs are 0; an infinite `f` (a delta
+/// strategy) gets weight 1.
+#[inline]
+pub fn power_heuristic(pdf_f: f32, pdf_g: f32) -> f32 {
+    if pdf_f.is_infinite() {
+        return 1.0;
+    }
+    let f2 = pdf_f * pdf_f;
+    let g2 = pdf_g * pdf_g;
+    if f2 + g2 > 0.0 { f2 / (f2 + g2) } else { 0.0 }
+}
+
+/// A discrete distribution over `n` items with given non-negative weights, sampled by inverting
+/// its cumulative distribution (binary search, O(log n)).
+#[derive(Clone, Debug)]
+pub struct Distribution1D {
+    weights: Vec<f32>,
+    /// Normalised CDF, `cdf[0] = 0`, `cdf[n] = 1`.
+    cdf: Vec<f32>,
+    total: f64,
+}
+
+impl Distribution1D {
+    /// Builds the distribution. Returns `None` if there are no items or the weights sum to zero
+    /// (or any weight is negative or not finite).
+    pub fn new(weights: Vec<f32>) -> Option<Self> {
+        if weights.is_empty() || weights.iter().any(|w| !w.is_finite() || *w < 0.0) {
+            return None;
+        }
+        let mut cdf = Vec::with_capacity(weights.len() + 1);
+        let mut acc = 0.0f64;
+        cdf.push(0.0);
+        for w in &weights {
+            acc += *w as f64;
+            cdf.push(acc as f32);
+        }
+        if acc <= 0.0 {
+            return None;
+        }
+        for c in cdf.iter_mut() {
+            *c = (*c as f64 / acc) as f32;
+        }
+        *cdf.last_mut().unwrap() = 1.0;
+        Some(Distribution1D { weights, cdf, total: acc })
+    }
+
+    /// Number of items.
+    pub fn len(&self) -> usize {
+        self.weights.len()
+    }
+
+    /// Always false: an empty distribution cannot be built.
+    pub fn is_empty(&self) -> bool {
+        self.weights.is_empty()
+    }
+
+    /// Sum of the weights.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    /// Probability of item `i`.
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f32 {
+        (self.weights[i] as f64 / self.total) as f32
+    }
+
+    /// Samples an item for `u` in [0,1): returns the item and its probability. Items with zero
+    /// weight are never returned.
+    #[inline]
+    pub fn sample(&self, u: f32) -> (usize, f32) {
+        // First index with cdf[i+1] > u.
+        let n = self.weights.len();
+        let mut lo = 0usize;
+        let mut hi = n - 1;
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if self.cdf[mid + 1] > u {
+                hi = mid;
+            } else {
+                lo = mid + 1;
+            }
+        }
+        // Skip zero-weight items that a rounding tie could land on.
+        let mut i = lo;
+        while self.weights[i] == 0.0 && i + 1 < n {
+            i += 1;
+        }
+        while self.weights[i] == 0.0 && i > 0 {
+            i -= 1;
+        }
+        (i, self.pmf(i))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    #[test]
+    fn cosine_hemisphere_round_trip() {
+        let mut rng = Rng::new(1, 1);
+        for _ in 0..10_000 {
+            let u = rng.uniform2();
+            let w = square_to_cosine_hemisphere(u);
+            assert!((w.length() - 1.0).abs() < 1e-4);
+            let back = cosine_hemisphere_to_square(w);
+            assert!((back - u).abs().max_element() < 2e-3, "{u:?} -> {w:?} -> {back:?}");
+        }
+    }
+
+    #[test]
+    fn triangle_round_trip_and_inside() {
+        let mut rng = Rng::new(2, 1);
+        for _ in 0..10_000 {
+            let u = rng.uniform2();
+            let b = square_to_uniform_triangle(u);
+            assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
+            let back = uniform_triangle_to_square(b);
+            assert!((back - u).abs().max_element() < 1e-3);
+        }
+    }
+
+    #[test]
+    fn distribution_matches_weights() {
+        let d = Distribution1D::new(vec![1.0, 0.0, 3.0, 4.0]).unwrap();
+        let mut counts = [0usize; 4];
+        let mut rng = Rng::new(3, 1);
+        let n = 400_000;
+        for _ in 0..n {
+            let (i, p) = d.sample(rng.uniform());
+            assert!((p - d.pmf(i)).abs() < 1e-7);
+            counts[i] += 1;
+        }
+        assert_eq!(counts[1], 0);
+        for (i, &c) in counts.iter().enumerate() {
+            let p = d.pmf(i) as f64;
+            let sd = (n as f64 * p * (1.0 - p)).sqrt();
+            assert!((c as f64 - n as f64 * p).abs() <= 5.0 * sd + 1.0);
+        }
+        assert!(Distribution1D::new(vec![0.0, 0.0]).is_none());
+        assert!(Distribution1D::new(vec![]).is_none());
+    }
+
+    #[test]
+    fn power_heuristic_weights_sum_to_one() {
+        for (a, b) in [(1.0, 2.0), (0.3, 0.0), (5.0, 5.0)] {
+            assert!((power_heuristic(a, b) + power_heuristic(b, a) - 1.0).abs() < 1e-6);
+        }
+    }
+}
