@@ -1,8 +1,34 @@
 //! # aleph
 //!
 //! A physically based path tracer that renders only what a person can see.
+//!
+//! The renderer side of the workspace: scene loading ([`scene`]), geometry and the BVH
+//! ([`geometry`]), the pinhole [`camera`], [`bsdf`]s and [`material`]s, area [`light`]s, the path
+//! tracer ([`integrator`]), the sample buffers ([`film`]), the parallel driver ([`render`]) and
+//! image [`output`]. The human-visual-system models live in the `perception` crate.
+//!
+//! ```no_run
+//! use aleph::{scene::Scene, render::render_uniform, integrator::Strategy};
+//! let scene = Scene::load(std::path::Path::new("scenes/cornell-box/scene.toml")).unwrap();
+//! let (film, stats) = render_uniform(&scene, Strategy::Mis, 16, &|_| {});
+//! println!("{} samples, {} rays", stats.samples, stats.rays);
+//! let rgb = film.mean_rgb(); // linear radiance, W·sr⁻¹·m⁻², interleaved RGB
+//! # let _ = rgb;
+//! ```
+
 pub mod bsdf;
+pub mod camera;
 pub mod chi2;
+pub mod error;
+pub mod film;
+pub mod geometry;
+pub mod integrator;
+pub mod light;
+pub mod material;
 pub mod math;
+pub mod output;
+pub mod render;
 pub mod rng;
 pub mod sampling;
+pub mod scene;
+pub mod texture;

@@ -1,0 +1,66 @@
+//! Command-line interface: `aleph render`, … Errors print their whole cause chain on stderr and
+//! exit with status 2 (status 1 is reserved for "a visible difference was found" by `diff`).
+
+mod render;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// aleph: a physically based path tracer that renders only what a person can see.
+#[derive(Parser, Debug)]
+#[command(name = "aleph", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render a scene to OUT.exr (linear radiance + spp layer) and OUT.png (display image).
+    Render(render::RenderArgs),
+}
+
+/// Exit status for errors (bad input, I/O failures).
+pub const EXIT_ERROR: u8 = 2;
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render::run(args),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("aleph: error: {e:#}");
+            ExitCode::from(EXIT_ERROR)
+        }
+    }
+}
+
+/// Parses `WxH` (also `W×H`).
+pub fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X', '×'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT, got {s:?}"))?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width in {s:?}"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height in {s:?}"))?;
+    if w == 0 || h == 0 {
+        return Err(format!("resolution must be at least 1x1, got {s:?}"));
+    }
+    Ok((w, h))
+}
+
+/// Runs `f` on a rayon pool of `threads` workers (all cores when `None`).
+pub fn with_threads<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> T + Send,
+) -> anyhow::Result<T> {
+    match threads {
+        None => Ok(f()),
+        Some(0) => anyhow::bail!("--threads must be at least 1"),
+        Some(n) => {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build()?;
+            Ok(pool.install(f))
+        }
+    }
+}

@@ -1,0 +1,72 @@
+//! Errors from loading scenes and writing images.
+
+use std::path::PathBuf;
+
+/// Something wrong with a scene or one of the files it names. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SceneError {
+    /// A file could not be opened or read (missing, unreadable).
+    #[error("{}: cannot read file: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating-system error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The scene TOML is malformed, has an unknown key, or a value of the wrong type. The
+    /// message carries the line and column.
+    #[error("{}: {message}", path.display())]
+    Toml {
+        /// The scene file.
+        path: PathBuf,
+        /// The parser's message, with location.
+        message: String,
+    },
+    /// An OBJ file could not be parsed.
+    #[error("{}: invalid OBJ file: {message}", path.display())]
+    Obj {
+        /// The OBJ file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// An MTL file named by an OBJ could not be loaded.
+    #[error("{}: cannot load MTL file: {message}", path.display())]
+    Mtl {
+        /// The MTL file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A texture named by an MTL file could not be loaded.
+    #[error("{}: cannot load texture: {message}", path.display())]
+    Texture {
+        /// The image file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A value is out of range or inconsistent (NaN vertex, zero resolution, unknown material
+    /// name, …). The message names the key or element and the valid range.
+    #[error("{}: {message}", path.display())]
+    Invalid {
+        /// The file holding the value.
+        path: PathBuf,
+        /// What is wrong and what is allowed.
+        message: String,
+    },
+    /// Nothing in the scene emits light.
+    #[error(
+        "{}: the scene has no light: no MTL material has a non-zero Ke and no [[light]] is given",
+        path.display()
+    )]
+    NoLights {
+        /// The scene file.
+        path: PathBuf,
+    },
+}
+
+/// Result alias for scene loading.
+pub type SceneResult<T> = Result<T, SceneError>;

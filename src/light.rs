@@ -1,0 +1,140 @@
+//! Area lights: every emissive triangle is a one-sided diffuse emitter.
+//!
+//! Next-event estimation picks a triangle with probability proportional to its emitted power
+//! (luminance of the mean emitted radiance × area × π; any positive weight keeps the estimator
+//! unbiased, power makes it efficient), samples a point uniformly on it (area pdf 1/A) and
+//! converts to solid angle at the receiver: pdf_ω = pdf_A · d² / |cos θ_l| (Veach 1997 eq. 8.10).
+
+use crate::geometry::TriangleAttributes;
+use crate::material::Material;
+use crate::sampling::{Distribution1D, square_to_uniform_triangle};
+use crate::texture::Texture;
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// A point sampled on a light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Point on the emitter.
+    pub p: Vec3,
+    /// Unit geometric normal of the emitter (its emitting side).
+    pub n: Vec3,
+    /// Emitted radiance towards the receiver (W·sr⁻¹·m⁻²), zero if the receiver is behind.
+    pub le: Vec3,
+    /// Unit direction from the receiver to `p`.
+    pub wi: Vec3,
+    /// Distance from the receiver to `p`.
+    pub dist: f32,
+    /// Solid-angle pdf at the receiver (includes the choice of triangle).
+    pub pdf: f32,
+}
+
+/// The scene's emitters and the distribution used to choose among them.
+#[derive(Clone, Debug)]
+pub struct Lights {
+    /// Triangle id of each emitter.
+    pub tris: Vec<u32>,
+    dist: Distribution1D,
+}
+
+impl Lights {
+    /// Collects emissive triangles and assigns `light` indices into `tris`. Returns `None` if
+    /// nothing emits (or all emitters have zero area).
+    pub fn build(
+        tris: &mut [TriangleAttributes],
+        materials: &[Material],
+        textures: &[Texture],
+    ) -> Option<Lights> {
+        let mut ids = Vec::new();
+        let mut weights = Vec::new();
+        for (i, t) in tris.iter_mut().enumerate() {
+            t.light = u32::MAX;
+            let m = &materials[t.material as usize];
+            let Some(e) = &m.emission else { continue };
+            let power = crate::math::luminance(e.mean(textures).max(Vec3::ZERO)) * t.area() * PI;
+            if power > 0.0 && power.is_finite() {
+                t.light = ids.len() as u32;
+                ids.push(i as u32);
+                weights.push(power);
+            }
+        }
+        let dist = Distribution1D::new(weights)?;
+        Some(Lights { tris: ids, dist })
+    }
+
+    /// Number of emissive triangles.
+    pub fn len(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// True when there are no emitters (never for a built set).
+    pub fn is_empty(&self) -> bool {
+        self.tris.is_empty()
+    }
+
+    /// Total emitted power weight (relative units; for statistics).
+    pub fn total_power(&self) -> f64 {
+        self.dist.total()
+    }
+
+    /// Samples a point on an emitter as seen from `p_ref`. `uc` chooses the triangle, `u` the
+    /// point. Returns `None` for a degenerate configuration (zero distance or grazing).
+    #[inline]
+    pub fn sample(
+        &self,
+        p_ref: Vec3,
+        uc: f32,
+        u: Vec2,
+        tris: &[TriangleAttributes],
+        materials: &[Material],
+        textures: &[Texture],
+    ) -> Option<LightSample> {
+        let (li, pmf) = self.dist.sample(uc);
+        let t = &tris[self.tris[li] as usize];
+        let b = square_to_uniform_triangle(u);
+        let b0 = 1.0 - b.x - b.y;
+        let p = t.p[0] * b.x + t.p[1] * b.y + t.p[2] * b0;
+        let n = t.geometric_normal();
+        let area = t.area();
+        let d = p - p_ref;
+        let dist2 = d.length_squared();
+        if dist2 <= 0.0 || area <= 0.0 {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        let cos_l = -wi.dot(n);
+        if cos_l <= 1e-7 {
+            return None; // back of a one-sided emitter, or grazing
+        }
+        let uv = t.uv[0] * b.x + t.uv[1] * b.y + t.uv[2] * b0;
+        let le = materials[t.material as usize].emitted(uv, textures);
+        let pdf = pmf / area * dist2 / cos_l;
+        Some(LightSample {
+            p,
+            n,
+            le,
+            wi,
+            dist,
+            pdf,
+        })
+    }
+
+    /// Solid-angle pdf with which [`Lights::sample`] would pick point `p_light` on emitter
+    /// triangle `tri` (whose `light` index is set) from `p_ref`.
+    #[inline]
+    pub fn pdf(&self, tri: &TriangleAttributes, p_ref: Vec3, p_light: Vec3) -> f32 {
+        if tri.light == u32::MAX {
+            return 0.0;
+        }
+        let d = p_light - p_ref;
+        let dist2 = d.length_squared();
+        let n = tri.geometric_normal();
+        let cos_l = (-d.dot(n) / dist2.sqrt()).max(0.0);
+        let area = tri.area();
+        if cos_l <= 1e-7 || area <= 0.0 {
+            return 0.0;
+        }
+        self.dist.pmf(tri.light as usize) / area * dist2 / cos_l
+    }
+}

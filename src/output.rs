@@ -1,0 +1,209 @@
+//! Writing images: OpenEXR (linear radiance plus AOV channels) and PNG (display-encoded), each
+//! written to a temporary file in the destination directory and renamed into place only when
+//! every output of a command has been written, so a failure leaves no partial file behind.
+
+use exr::prelude::*;
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// Errors writing output files. Each variant names the file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum OutputError {
+    /// The file could not be created, written or renamed into place.
+    #[error("{}: cannot write: {source}", path.display())]
+    Io {
+        /// Destination.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The image encoder failed.
+    #[error("{}: cannot encode image: {message}", path.display())]
+    Encode {
+        /// Destination.
+        path: PathBuf,
+        /// Encoder message.
+        message: String,
+    },
+}
+
+/// Writes several files so that either all of them appear at their destinations or none does:
+/// each is staged as a temporary file beside its destination, and [`AtomicOutputs::commit`]
+/// renames them into place. Dropping without committing deletes the temporaries.
+#[derive(Default)]
+pub struct AtomicOutputs {
+    staged: Vec<(tempfile::NamedTempFile, PathBuf)>,
+}
+
+impl AtomicOutputs {
+    /// A new, empty set.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Stages `dest` by calling `write` on a temporary file in the same directory.
+    ///
+    /// # Errors
+    /// [`OutputError::Io`] if the directory does not exist or is not writable, or if `write`
+    /// fails.
+    pub fn stage(
+        &mut self,
+        dest: &Path,
+        write: impl FnOnce(&mut BufWriter<&File>) -> std::result::Result<(), OutputError>,
+    ) -> std::result::Result<(), OutputError> {
+        let io = |source: std::io::Error| OutputError::Io {
+            path: dest.to_path_buf(),
+            source,
+        };
+        let dir = match dest.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let name = dest.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".{name}."))
+            .suffix(".tmp")
+            .tempfile_in(&dir)
+            .map_err(io)?;
+        {
+            let mut w = BufWriter::new(tmp.as_file());
+            write(&mut w)?;
+            w.flush().map_err(io)?;
+        }
+        tmp.as_file().sync_all().map_err(io)?;
+        self.staged.push((tmp, dest.to_path_buf()));
+        Ok(())
+    }
+
+    /// Renames every staged file into place.
+    ///
+    /// # Errors
+    /// [`OutputError::Io`] naming the file whose rename failed.
+    pub fn commit(self) -> std::result::Result<(), OutputError> {
+        for (tmp, dest) in self.staged {
+            tmp.persist(&dest).map_err(|e| OutputError::Io {
+                path: dest.clone(),
+                source: e.error,
+            })?;
+        }
+        Ok(())
+    }
+}
+
+/// Samples of one extra EXR channel.
+#[derive(Clone, Debug)]
+pub enum ChannelData {
+    /// 32-bit float samples.
+    F32(Vec<f32>),
+    /// 32-bit unsigned integer samples.
+    U32(Vec<u32>),
+}
+
+/// Encodes a single-part OpenEXR image with channels R, G, B (32-bit float, linear, row-major
+/// interleaved input `rgb` of 3 × width × height values), the `extra` channels (names such as
+/// `spp` or `Threshold.Y`), and string attributes (e.g. units) in the header. ZIP compression
+/// (lossless).
+///
+/// # Panics
+/// If a buffer's length does not match the image size.
+pub fn write_exr(
+    w: &mut BufWriter<&File>,
+    dest: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[f32],
+    extra: &[(String, ChannelData)],
+    attributes: &[(String, String)],
+) -> std::result::Result<(), OutputError> {
+    let n = width as usize * height as usize;
+    assert_eq!(rgb.len(), 3 * n);
+    let plane = |c: usize| -> Vec<f32> { rgb.iter().skip(c).step_by(3).copied().collect() };
+    let mut channels: Vec<AnyChannel<FlatSamples>> = vec![
+        AnyChannel::new("R", FlatSamples::F32(plane(0))),
+        AnyChannel::new("G", FlatSamples::F32(plane(1))),
+        AnyChannel::new("B", FlatSamples::F32(plane(2))),
+    ];
+    for (name, data) in extra {
+        let samples = match data {
+            ChannelData::F32(v) => {
+                assert_eq!(v.len(), n);
+                FlatSamples::F32(v.clone())
+            }
+            ChannelData::U32(v) => {
+                assert_eq!(v.len(), n);
+                FlatSamples::U32(v.clone())
+            }
+        };
+        channels.push(AnyChannel::new(name.as_str(), samples));
+    }
+    let mut attrs = LayerAttributes::default();
+    let mut other = HashMap::new();
+    for (k, v) in attributes {
+        other.insert(Text::from(k.as_str()), AttributeValue::Text(Text::from(v.as_str())));
+    }
+    attrs.other = other;
+    attrs.software_name = Some(Text::from(concat!("aleph ", env!("CARGO_PKG_VERSION"))));
+    let layer = Layer::new(
+        (width as usize, height as usize),
+        attrs,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(w)
+        .map_err(|e| OutputError::Encode {
+            path: dest.to_path_buf(),
+            message: e.to_string(),
+        })
+}
+
+/// Encodes 8-bit RGB display values (row-major, 3 per pixel) as PNG.
+///
+/// # Panics
+/// If `rgb8.len() != 3 × width × height`.
+pub fn write_png(
+    w: &mut BufWriter<&File>,
+    dest: &Path,
+    width: u32,
+    height: u32,
+    rgb8: &[u8],
+) -> std::result::Result<(), OutputError> {
+    assert_eq!(rgb8.len(), 3 * width as usize * height as usize);
+    let enc = image::codecs::png::PngEncoder::new(w);
+    image::ImageEncoder::write_image(enc, rgb8, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| OutputError::Encode {
+            path: dest.to_path_buf(),
+            message: e.to_string(),
+        })
+}
+
+/// sRGB OETF (IEC 61966-2-1): linear display value in [0,1] to encoded [0,1].
+#[inline]
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Display-linear RGB in [0,1] (interleaved) → 8-bit sRGB, rounding to nearest.
+pub fn encode_srgb8(display_rgb: &[f32]) -> Vec<u8> {
+    display_rgb
+        .iter()
+        .map(|&c| (linear_to_srgb(if c.is_finite() { c } else { 0.0 }) * 255.0 + 0.5) as u8)
+        .collect()
+}
+
+/// The simplest tone mapping: multiply linear radiance by 2^`exposure_ev` and clip to [0,1]
+/// (the seed paper's "constant scaling", Figure 4).
+pub fn expose(rgb: &[f32], exposure_ev: f32) -> Vec<f32> {
+    let k = exposure_ev.exp2();
+    rgb.iter().map(|&c| (c * k).clamp(0.0, 1.0)).collect()
+}

@@ -1,0 +1,122 @@
+//! The render driver: runs the integrator over the film in parallel, deterministically.
+
+use crate::film::{Film, PixelStats};
+use crate::integrator::{Integrator, Strategy};
+use crate::rng::Rng;
+use crate::scene::Scene;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+/// Counters of one or more render passes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    /// Camera samples taken.
+    pub samples: u64,
+    /// Rays traced (closest-hit and shadow).
+    pub rays: u64,
+    /// Samples whose radiance was NaN or infinite: they are counted here and contribute zero
+    /// (the sample index is consumed so every pixel's stream stays aligned).
+    pub nonfinite: u64,
+    /// Wall-clock time.
+    pub wall: Duration,
+}
+
+impl std::ops::AddAssign for RenderStats {
+    fn add_assign(&mut self, o: RenderStats) {
+        self.samples += o.samples;
+        self.rays += o.rays;
+        self.nonfinite += o.nonfinite;
+        self.wall += o.wall;
+    }
+}
+
+/// Takes the next `count` samples (indices `n .. n + count`) of pixel `index` = y·width + x.
+#[inline]
+fn sample_pixel(
+    scene: &Scene,
+    integrator: &Integrator,
+    seed: u64,
+    x: u32,
+    y: u32,
+    px: &mut PixelStats,
+    count: u32,
+    rays: &mut u64,
+    nonfinite: &mut u64,
+) {
+    let index = y as u64 * scene.camera.width as u64 + x as u64;
+    for _ in 0..count {
+        let mut rng = Rng::for_sample(seed, index, px.n as u64);
+        let ray = scene.camera.generate_ray(x, y, rng.uniform2());
+        let r = integrator.radiance(scene, ray, &mut rng);
+        *rays += r.rays as u64;
+        let v = if r.radiance.is_finite() {
+            r.radiance
+        } else {
+            *nonfinite += 1;
+            glam::Vec3::ZERO
+        };
+        px.add(v);
+    }
+}
+
+/// Adds `counts[i]` samples to pixel i of `film` (row-major), in parallel over rows. The result
+/// is bit-identical for any thread count. `progress` is called with the number of samples each
+/// finished row took (from worker threads).
+///
+/// # Panics
+/// If `counts.len()` differs from the film's pixel count or the film's size differs from the
+/// camera's.
+pub fn render_counts(
+    scene: &Scene,
+    integrator: &Integrator,
+    film: &mut Film,
+    counts: &[u32],
+    progress: &(dyn Fn(u64) + Sync),
+) -> RenderStats {
+    assert_eq!(counts.len(), film.len());
+    assert_eq!((film.width, film.height), (scene.camera.width, scene.camera.height));
+    let start = Instant::now();
+    let rays = AtomicU64::new(0);
+    let nonfinite = AtomicU64::new(0);
+    let w = film.width as usize;
+    let seed = scene.settings.seed;
+    film.pixels
+        .par_chunks_mut(w)
+        .zip(counts.par_chunks(w))
+        .enumerate()
+        .for_each(|(y, (row, row_counts))| {
+            let (mut r, mut nf, mut s) = (0u64, 0u64, 0u64);
+            for (x, (px, &c)) in row.iter_mut().zip(row_counts).enumerate() {
+                sample_pixel(scene, integrator, seed, x as u32, y as u32, px, c, &mut r, &mut nf);
+                s += c as u64;
+            }
+            rays.fetch_add(r, Ordering::Relaxed);
+            nonfinite.fetch_add(nf, Ordering::Relaxed);
+            progress(s);
+        });
+    RenderStats {
+        samples: counts.iter().map(|&c| c as u64).sum(),
+        rays: rays.into_inner(),
+        nonfinite: nonfinite.into_inner(),
+        wall: start.elapsed(),
+    }
+}
+
+/// Renders `spp` samples in every pixel into a new film, in passes of increasing size so that
+/// progress can be reported; the image is the same as one pass of `spp` samples.
+pub fn render_uniform(
+    scene: &Scene,
+    strategy: Strategy,
+    spp: u32,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (Film, RenderStats) {
+    let integrator = Integrator {
+        max_depth: scene.settings.max_depth,
+        strategy,
+    };
+    let mut film = Film::new(scene.camera.width, scene.camera.height);
+    let counts = vec![spp; film.len()];
+    let stats = render_counts(scene, &integrator, &mut film, &counts, progress);
+    (film, stats)
+}

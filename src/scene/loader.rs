@@ -1,0 +1,803 @@
+//! Reading the TOML scene description and its OBJ/MTL files.
+
+use super::{RenderSettings, Scene};
+use crate::camera::Camera;
+use crate::error::{SceneError, SceneResult};
+use crate::geometry::{Geometry, TriangleAttributes};
+use crate::light::Lights;
+use crate::material::{ColorSource, Material, MaterialKind};
+use crate::texture::Texture;
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
+use serde::Deserialize;
+use std::cell::RefCell;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+/// The parsed scene file, before any mesh is loaded. Command-line overrides are applied to it
+/// before [`SceneDescription::build`].
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDescription {
+    /// `[camera]`.
+    pub camera: CameraDesc,
+    /// `[render]`.
+    #[serde(default)]
+    pub render: RenderDesc,
+    /// `[[mesh]]` entries.
+    #[serde(default, rename = "mesh")]
+    pub meshes: Vec<MeshDesc>,
+    /// `[materials.NAME]` overrides, by MTL material name.
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialOverride>,
+    /// `[[light]]` entries.
+    #[serde(default, rename = "light")]
+    pub lights: Vec<LightDesc>,
+    /// The scene file (set by [`SceneDescription::read`]).
+    #[serde(skip)]
+    pub path: PathBuf,
+}
+
+/// `[camera]`: a pinhole camera.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    /// Eye position.
+    pub position: [f32; 3],
+    /// Point looked at.
+    pub look_at: [f32; 3],
+    /// Up vector (default +y).
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view in degrees, in (0, 180).
+    pub vfov_deg: f32,
+    /// Width and height in pixels, each in 1..=65536.
+    pub resolution: [u32; 2],
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+/// `[render]`: sampling settings; every key is optional.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderDesc {
+    /// Samples per pixel.
+    pub spp: Option<u32>,
+    /// Maximum path depth.
+    pub max_depth: Option<u32>,
+    /// Random seed.
+    pub seed: Option<u64>,
+    /// cd/m² per unit radiance.
+    pub luminance_scale: Option<f32>,
+}
+
+/// `[[mesh]]`: an OBJ file and an optional transform.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshDesc {
+    /// OBJ path, relative to the scene file.
+    pub file: PathBuf,
+    /// Object-to-world transform.
+    #[serde(default)]
+    pub transform: Option<TransformDesc>,
+}
+
+/// A transform: scale, then rotations about x, y, z (degrees), then translation; or a full
+/// row-major 4×4 `matrix` instead.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformDesc {
+    /// Uniform (number) or per-axis (array) scale.
+    pub scale: Option<ScaleDesc>,
+    /// Rotations about x, then y, then z, in degrees.
+    pub rotate_deg: Option<[f32; 3]>,
+    /// Translation.
+    pub translate: Option<[f32; 3]>,
+    /// Row-major 4×4 matrix (exclusive with the other keys).
+    pub matrix: Option<[[f32; 4]; 4]>,
+}
+
+/// A scale factor.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum ScaleDesc {
+    /// Same factor on every axis.
+    Uniform(f32),
+    /// Per-axis factors.
+    PerAxis([f32; 3]),
+}
+
+/// Material class names in overrides.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[serde(rename_all = "lowercase")]
+pub enum MaterialType {
+    /// Lambertian.
+    Diffuse,
+    /// Ideal specular.
+    Mirror,
+    /// Lambert + GGX.
+    Glossy,
+    /// Smooth dielectric.
+    Dielectric,
+}
+
+/// `[materials.NAME]`: replaces parts of an MTL material.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialOverride {
+    /// New class.
+    #[serde(rename = "type")]
+    pub kind: Option<MaterialType>,
+    /// Diffuse reflectance (diffuse, glossy) or mirror reflectance (mirror), [0,1] each.
+    pub reflectance: Option<[f32; 3]>,
+    /// Specular reflectance of the glossy lobe, [0,1] each.
+    pub specular: Option<[f32; 3]>,
+    /// GGX α of the glossy lobe, in (0, 1].
+    pub alpha: Option<f32>,
+    /// Index of refraction of a dielectric, > 0.
+    pub ior: Option<f32>,
+    /// Transmission filter of a dielectric, [0,1] each.
+    pub transmittance: Option<[f32; 3]>,
+    /// Emitted radiance, W·sr⁻¹·m⁻², ≥ 0 each (all zero removes emission).
+    pub emission: Option<[f32; 3]>,
+}
+
+/// `[[light]]`: an explicit emitter.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum LightDesc {
+    /// A one-sided parallelogram `corner + s·edge1 + t·edge2`, s, t ∈ [0,1], emitting towards
+    /// edge1 × edge2.
+    Quad {
+        /// One corner.
+        corner: [f32; 3],
+        /// First edge.
+        edge1: [f32; 3],
+        /// Second edge.
+        edge2: [f32; 3],
+        /// Emitted radiance, W·sr⁻¹·m⁻².
+        radiance: [f32; 3],
+    },
+}
+
+impl SceneDescription {
+    /// Reads and parses a scene file (no meshes are loaded yet).
+    ///
+    /// # Errors
+    /// [`SceneError::Io`] if unreadable, [`SceneError::Toml`] if malformed or with an unknown
+    /// key (the message gives line and column).
+    pub fn read(path: &Path) -> SceneResult<SceneDescription> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses scene TOML `text`; `path` is used for messages and relative file names.
+    pub fn parse(text: &str, path: &Path) -> SceneResult<SceneDescription> {
+        let mut desc: SceneDescription = toml::from_str(text).map_err(|e| SceneError::Toml {
+            path: path.to_path_buf(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        desc.path = path.to_path_buf();
+        Ok(desc)
+    }
+
+    /// The settings, with defaults filled in.
+    pub fn settings(&self) -> RenderSettings {
+        let d = RenderSettings::default();
+        RenderSettings {
+            spp: self.render.spp.unwrap_or(d.spp),
+            max_depth: self.render.max_depth.unwrap_or(d.max_depth),
+            seed: self.render.seed.unwrap_or(d.seed),
+            luminance_scale: self.render.luminance_scale.unwrap_or(d.luminance_scale),
+        }
+    }
+
+    fn invalid(&self, message: impl Into<String>) -> SceneError {
+        SceneError::Invalid {
+            path: self.path.clone(),
+            message: message.into(),
+        }
+    }
+
+    /// Loads the meshes, materials and textures and builds the BVH and light list.
+    ///
+    /// # Errors
+    /// See [`Scene::load`].
+    pub fn build(self) -> SceneResult<Scene> {
+        let settings = self.settings();
+        let camera = self.camera()?;
+        if settings.spp == 0 {
+            return Err(self.invalid("render.spp must be at least 1"));
+        }
+        if settings.max_depth == 0 {
+            return Err(self.invalid("render.max_depth must be at least 1"));
+        }
+        if !(settings.luminance_scale.is_finite() && settings.luminance_scale > 0.0) {
+            return Err(self.invalid(format!(
+                "render.luminance_scale must be a positive number, got {}",
+                settings.luminance_scale
+            )));
+        }
+        let base = self.path.parent().unwrap_or(Path::new("")).to_path_buf();
+        let mut b = Builder::default();
+        for (i, mesh) in self.meshes.iter().enumerate() {
+            let xf = self.transform(i, mesh.transform.as_ref())?;
+            b.load_obj(&base.join(&mesh.file), xf)?;
+        }
+        for (name, ov) in &self.materials {
+            let Some(&idx) = b.material_index.get(name) else {
+                let mut known: Vec<&String> = b.material_index.keys().collect();
+                known.sort();
+                return Err(self.invalid(format!(
+                    "[materials.{name}]: no MTL material is named {name:?} (known: {known:?})"
+                )));
+            };
+            let m = &mut b.materials[idx as usize];
+            apply_override(m, ov).map_err(|msg| self.invalid(format!("[materials.{name}]: {msg}")))?;
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            match l {
+                LightDesc::Quad {
+                    corner,
+                    edge1,
+                    edge2,
+                    radiance,
+                } => {
+                    let vals = corner.iter().chain(edge1).chain(edge2).chain(radiance);
+                    if vals.clone().any(|v| !v.is_finite()) {
+                        return Err(self.invalid(format!("[[light]] #{}: values must be finite", i + 1)));
+                    }
+                    if radiance.iter().any(|&v| v < 0.0) {
+                        return Err(self.invalid(format!("[[light]] #{}: radiance must be ≥ 0", i + 1)));
+                    }
+                    let (c, e1, e2) = (Vec3::from(*corner), Vec3::from(*edge1), Vec3::from(*edge2));
+                    if e1.cross(e2).length() <= 0.0 {
+                        return Err(self.invalid(format!(
+                            "[[light]] #{}: edge1 and edge2 must span a non-zero area",
+                            i + 1
+                        )));
+                    }
+                    let mat = b.materials.len() as u32;
+                    b.materials.push(Material {
+                        name: format!("light#{}", i + 1),
+                        kind: MaterialKind::Diffuse,
+                        kd: ColorSource::Constant(Vec3::ZERO),
+                        ks: ColorSource::Constant(Vec3::ZERO),
+                        transmittance: Vec3::ONE,
+                        emission: Some(ColorSource::Constant(Vec3::from(*radiance))),
+                    });
+                    for p in [[c, c + e1, c + e1 + e2], [c, c + e1 + e2, c + e2]] {
+                        b.tris.push(TriangleAttributes {
+                            p,
+                            n: None,
+                            uv: [Vec2::ZERO; 3],
+                            material: mat,
+                            light: u32::MAX,
+                        });
+                    }
+                }
+            }
+        }
+        if b.tris.is_empty() {
+            return Err(self.invalid("the scene has no geometry: add a [[mesh]] or a [[light]]"));
+        }
+        let lights = Lights::build(&mut b.tris, &b.materials, &b.textures).ok_or_else(|| {
+            SceneError::NoLights {
+                path: self.path.clone(),
+            }
+        })?;
+        let geometry = Geometry::new(b.tris);
+        Ok(Scene {
+            camera,
+            settings,
+            geometry,
+            materials: b.materials,
+            textures: b.textures,
+            lights,
+            path: self.path,
+        })
+    }
+
+    fn camera(&self) -> SceneResult<Camera> {
+        let c = &self.camera;
+        let [w, h] = c.resolution;
+        if w == 0 || h == 0 || w > 65536 || h > 65536 {
+            return Err(self.invalid(format!(
+                "camera.resolution must be in 1..=65536 on both axes, got {w}×{h}"
+            )));
+        }
+        if !(c.vfov_deg > 0.0 && c.vfov_deg < 180.0) {
+            return Err(self.invalid(format!(
+                "camera.vfov_deg must be in (0, 180) degrees, got {}",
+                c.vfov_deg
+            )));
+        }
+        let vals = c.position.iter().chain(&c.look_at).chain(&c.up);
+        if vals.clone().any(|v| !v.is_finite()) {
+            return Err(self.invalid("camera position, look_at and up must be finite"));
+        }
+        Camera::look_at(
+            c.position.into(),
+            c.look_at.into(),
+            c.up.into(),
+            c.vfov_deg,
+            w,
+            h,
+        )
+        .ok_or_else(|| {
+            self.invalid("camera: look_at must differ from position and not be parallel to up")
+        })
+    }
+
+    fn transform(&self, mesh: usize, t: Option<&TransformDesc>) -> SceneResult<Mat4> {
+        let Some(t) = t else { return Ok(Mat4::IDENTITY) };
+        let key = format!("[[mesh]] #{} transform", mesh + 1);
+        let m = if let Some(rows) = t.matrix {
+            if t.scale.is_some() || t.rotate_deg.is_some() || t.translate.is_some() {
+                return Err(self.invalid(format!(
+                    "{key}: `matrix` cannot be combined with scale/rotate_deg/translate"
+                )));
+            }
+            Mat4::from_cols_array_2d(&rows).transpose()
+        } else {
+            let s = match &t.scale {
+                None => Vec3::ONE,
+                Some(ScaleDesc::Uniform(s)) => Vec3::splat(*s),
+                Some(ScaleDesc::PerAxis(s)) => Vec3::from(*s),
+            };
+            let r = t.rotate_deg.unwrap_or([0.0; 3]);
+            let q = Quat::from_rotation_z(r[2].to_radians())
+                * Quat::from_rotation_y(r[1].to_radians())
+                * Quat::from_rotation_x(r[0].to_radians());
+            Mat4::from_scale_rotation_translation(s, q, Vec3::from(t.translate.unwrap_or([0.0; 3])))
+        };
+        if !m.is_finite() || m.determinant().abs() < 1e-12 {
+            return Err(self.invalid(format!("{key}: must be finite and invertible")));
+        }
+        Ok(m)
+    }
+}
+
+fn check_unit_rgb(v: [f32; 3], key: &str) -> Result<Vec3, String> {
+    if v.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)) {
+        Ok(Vec3::from(v))
+    } else {
+        Err(format!("{key} must have components in [0, 1], got {v:?}"))
+    }
+}
+
+fn apply_override(m: &mut Material, ov: &MaterialOverride) -> Result<(), String> {
+    if let Some(kind) = ov.kind {
+        m.kind = match kind {
+            MaterialType::Diffuse => MaterialKind::Diffuse,
+            MaterialType::Mirror => MaterialKind::Mirror,
+            MaterialType::Glossy => MaterialKind::Glossy {
+                alpha: match m.kind {
+                    MaterialKind::Glossy { alpha } => alpha,
+                    _ => 0.2,
+                },
+            },
+            MaterialType::Dielectric => MaterialKind::Dielectric {
+                ior: match m.kind {
+                    MaterialKind::Dielectric { ior } => ior,
+                    _ => 1.5,
+                },
+            },
+        };
+        if kind == MaterialType::Mirror && ov.reflectance.is_none() && m.ks.is_black() {
+            m.ks = ColorSource::Constant(Vec3::ONE);
+        }
+    }
+    if let Some(r) = ov.reflectance {
+        let r = ColorSource::Constant(check_unit_rgb(r, "reflectance")?);
+        if m.kind == MaterialKind::Mirror {
+            m.ks = r;
+        } else {
+            m.kd = r;
+        }
+    }
+    if let Some(s) = ov.specular {
+        m.ks = ColorSource::Constant(check_unit_rgb(s, "specular")?);
+    }
+    if let Some(t) = ov.transmittance {
+        m.transmittance = check_unit_rgb(t, "transmittance")?;
+    }
+    if let Some(a) = ov.alpha {
+        if !(a > 0.0 && a <= 1.0) {
+            return Err(format!("alpha must be in (0, 1], got {a}"));
+        }
+        match &mut m.kind {
+            MaterialKind::Glossy { alpha } => *alpha = a,
+            _ => return Err("alpha applies only to type = \"glossy\"".into()),
+        }
+    }
+    if let Some(i) = ov.ior {
+        if !(i.is_finite() && i > 0.0) {
+            return Err(format!("ior must be a positive number, got {i}"));
+        }
+        match &mut m.kind {
+            MaterialKind::Dielectric { ior } => *ior = i,
+            _ => return Err("ior applies only to type = \"dielectric\"".into()),
+        }
+    }
+    if let Some(e) = ov.emission {
+        if e.iter().any(|x| !x.is_finite() || *x < 0.0) {
+            return Err(format!("emission must be finite and ≥ 0, got {e:?}"));
+        }
+        m.emission = if e.iter().all(|&x| x == 0.0) {
+            None
+        } else {
+            Some(ColorSource::Constant(Vec3::from(e)))
+        };
+    }
+    Ok(())
+}
+
+/// A texture reference from an MTL `map_*` statement: options and file name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureSpec {
+    /// File name (relative to the MTL file).
+    pub file: String,
+    /// `-mm base gain` (default 0, 1).
+    pub base: f32,
+    /// Gain from `-mm`.
+    pub gain: f32,
+}
+
+/// Parses the argument of an MTL `map_*` statement: options (`-mm base gain` is honoured;
+/// `-o`, `-s`, `-t` (up to 3 numbers), `-bm`, `-blendu`, `-blendv`, `-boost`, `-cc`, `-clamp`,
+/// `-imfchan`, `-texres` are skipped) followed by the file name. `None` when no file is named.
+pub fn parse_texture_spec(s: &str) -> Option<TextureSpec> {
+    let toks: Vec<&str> = s.split_whitespace().collect();
+    let (mut base, mut gain) = (0.0, 1.0);
+    let mut i = 0;
+    while i < toks.len() && toks[i].starts_with('-') && toks[i].len() > 1 {
+        let opt = toks[i];
+        i += 1;
+        let is_num = |t: &&str| t.parse::<f32>().is_ok();
+        match opt {
+            "-mm" => {
+                if let Some(b) = toks.get(i).and_then(|t| t.parse().ok()) {
+                    base = b;
+                    i += 1;
+                }
+                if let Some(g) = toks.get(i).and_then(|t| t.parse().ok()) {
+                    gain = g;
+                    i += 1;
+                }
+            }
+            "-o" | "-s" | "-t" => {
+                let mut k = 0;
+                while k < 3 && toks.get(i).is_some_and(is_num) {
+                    i += 1;
+                    k += 1;
+                }
+            }
+            _ => {
+                // One-argument options.
+                if i < toks.len() - 1 {
+                    i += 1;
+                }
+            }
+        }
+    }
+    if i >= toks.len() {
+        return None;
+    }
+    Some(TextureSpec {
+        file: toks[i..].join(" "),
+        base,
+        gain,
+    })
+}
+
+#[derive(Default)]
+struct Builder {
+    tris: Vec<TriangleAttributes>,
+    materials: Vec<Material>,
+    material_index: HashMap<String, u32>,
+    textures: Vec<Texture>,
+    texture_index: HashMap<PathBuf, u32>,
+    default_material: Option<u32>,
+}
+
+impl Builder {
+    fn texture(&mut self, dir: &Path, spec: &str) -> SceneResult<Option<ColorSource>> {
+        let Some(spec) = parse_texture_spec(spec) else {
+            return Ok(None);
+        };
+        let path = dir.join(spec.file.replace('\\', "/"));
+        let id = match self.texture_index.get(&path) {
+            Some(&id) => id,
+            None => {
+                let t = Texture::load(&path)?;
+                let id = self.textures.len() as u32;
+                self.textures.push(t);
+                self.texture_index.insert(path, id);
+                id
+            }
+        };
+        Ok(Some(ColorSource::Texture {
+            id,
+            base: spec.base,
+            gain: spec.gain,
+        }))
+    }
+
+    fn convert_material(&mut self, m: &tobj::Material, dir: &Path, mtl: &Path) -> SceneResult<Material> {
+        let rgb = |v: Option<[f32; 3]>| v.map(Vec3::from).unwrap_or(Vec3::ZERO);
+        let kd_c = rgb(m.diffuse);
+        let ks_c = rgb(m.specular);
+        let ke_c = rgb(m.emissive);
+        let bad = [kd_c, ks_c, ke_c].iter().any(|v| !v.is_finite() || v.min_element() < 0.0);
+        if bad {
+            return Err(SceneError::Mtl {
+                path: mtl.to_path_buf(),
+                message: format!("material {:?}: Kd, Ks and Ke must be finite and ≥ 0", m.name),
+            });
+        }
+        let kd = match &m.diffuse_texture {
+            Some(t) => self.texture(dir, t)?.unwrap_or(ColorSource::Constant(kd_c)),
+            None => ColorSource::Constant(kd_c),
+        };
+        let ks = match &m.specular_texture {
+            Some(t) => self.texture(dir, t)?.unwrap_or(ColorSource::Constant(ks_c)),
+            None => ColorSource::Constant(ks_c),
+        };
+        // tobj has no field for map_Ke; it lands in unknown_param.
+        let emission = match m.unknown_param.get("map_Ke") {
+            Some(t) => match self.texture(dir, t)? {
+                Some(ColorSource::Texture { id, base, gain }) => {
+                    // Ke multiplies the texture; fold a grey Ke into the gain.
+                    let k = if ke_c.max_element() > 0.0 { ke_c.max_element() } else { 1.0 };
+                    Some(ColorSource::Texture {
+                        id,
+                        base: base * k,
+                        gain: gain * k,
+                    })
+                }
+                _ => None,
+            },
+            None if ke_c.max_element() > 0.0 => Some(ColorSource::Constant(ke_c)),
+            None => None,
+        };
+        let illum = m.illumination_model.unwrap_or(2);
+        let tr: f32 = m
+            .unknown_param
+            .get("Tr")
+            .and_then(|s| s.trim().parse().ok())
+            .unwrap_or(0.0);
+        let dissolve = m.dissolve.unwrap_or(1.0);
+        let ns = m.shininess.unwrap_or(0.0);
+        let has_ks = ks_c.max_element() > 0.0 || m.specular_texture.is_some();
+        let kind = if matches!(illum, 4 | 6 | 7 | 9) || dissolve < 1.0 || tr > 0.0 {
+            let ior = m.optical_density.filter(|n| *n > 0.0 && n.is_finite()).unwrap_or(1.5);
+            MaterialKind::Dielectric { ior }
+        } else if matches!(illum, 5 | 8) || (has_ks && ns >= 10_000.0) {
+            MaterialKind::Mirror
+        } else if has_ks {
+            MaterialKind::Glossy {
+                alpha: Material::alpha_from_ns(ns),
+            }
+        } else {
+            MaterialKind::Diffuse
+        };
+        let ks = if kind == MaterialKind::Mirror && ks.is_black() {
+            ColorSource::Constant(Vec3::ONE)
+        } else {
+            ks
+        };
+        let tf = m
+            .unknown_param
+            .get("Tf")
+            .map(|s| {
+                let v: Vec<f32> = s.split_whitespace().filter_map(|t| t.parse().ok()).collect();
+                match v.len() {
+                    1 => Vec3::splat(v[0]),
+                    n if n >= 3 => Vec3::new(v[0], v[1], v[2]),
+                    _ => Vec3::ONE,
+                }
+            })
+            .unwrap_or(Vec3::ONE)
+            .clamp(Vec3::ZERO, Vec3::ONE);
+        Ok(Material {
+            name: m.name.clone(),
+            kind,
+            kd,
+            ks,
+            transmittance: tf,
+            emission,
+        })
+    }
+
+    fn load_obj(&mut self, path: &Path, xf: Mat4) -> SceneResult<()> {
+        let obj_err = |message: String| SceneError::Obj {
+            path: path.to_path_buf(),
+            message,
+        };
+        let text = std::fs::read(path).map_err(|source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        check_vertex_lines(&text).map_err(obj_err)?;
+        let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+        let mtl_failure: RefCell<Option<(PathBuf, String)>> = RefCell::new(None);
+        let mtl_paths: RefCell<Vec<PathBuf>> = RefCell::new(Vec::new());
+        let opts = tobj::LoadOptions {
+            triangulate: true,
+            single_index: true,
+            ..Default::default()
+        };
+        let (models, materials) = tobj::load_obj_buf(&mut text.as_slice(), &opts, |name| {
+            let full = dir.join(name);
+            mtl_paths.borrow_mut().push(full.clone());
+            let r = tobj::load_mtl(&full);
+            if let Err(e) = &r {
+                let msg = if full.exists() {
+                    format!("{e}")
+                } else {
+                    "file not found".to_string()
+                };
+                mtl_failure.borrow_mut().get_or_insert((full.clone(), msg));
+            }
+            r
+        })
+        .map_err(|e| obj_err(format!("{e}")))?;
+        if let Some((p, message)) = mtl_failure.into_inner() {
+            return Err(SceneError::Mtl { path: p, message });
+        }
+        let mtl_path = mtl_paths.into_inner().first().cloned().unwrap_or_else(|| path.to_path_buf());
+        let mtl_dir = mtl_path.parent().unwrap_or(Path::new("")).to_path_buf();
+        let materials = materials.unwrap_or_default();
+        let mut local_to_global = Vec::with_capacity(materials.len());
+        for m in &materials {
+            let mat = self.convert_material(m, &mtl_dir, &mtl_path)?;
+            let idx = self.materials.len() as u32;
+            self.material_index.insert(m.name.clone(), idx);
+            self.materials.push(mat);
+            local_to_global.push(idx);
+        }
+        let normal_xf = Mat3::from_mat4(xf).inverse().transpose();
+        for model in &models {
+            let mesh = &model.mesh;
+            let material = match mesh.material_id {
+                Some(id) if id < local_to_global.len() => local_to_global[id],
+                _ => self.default_material(),
+            };
+            let pos = |i: u32| -> Vec3 {
+                let i = i as usize * 3;
+                xf.transform_point3(Vec3::new(
+                    mesh.positions[i],
+                    mesh.positions[i + 1],
+                    mesh.positions[i + 2],
+                ))
+            };
+            let has_n = mesh.normals.len() == mesh.positions.len() && !mesh.normals.is_empty();
+            let has_uv = mesh.texcoords.len() / 2 == mesh.positions.len() / 3 && !mesh.texcoords.is_empty();
+            for (f, idx) in mesh.indices.chunks_exact(3).enumerate() {
+                let p = [pos(idx[0]), pos(idx[1]), pos(idx[2])];
+                if p.iter().any(|v| !v.is_finite()) {
+                    return Err(obj_err(format!(
+                        "object {:?}, face {}: vertex position is NaN or infinite",
+                        model.name,
+                        f + 1
+                    )));
+                }
+                let n = if has_n {
+                    let nn = |i: u32| {
+                        let i = i as usize * 3;
+                        (normal_xf * Vec3::new(mesh.normals[i], mesh.normals[i + 1], mesh.normals[i + 2]))
+                            .normalize_or_zero()
+                    };
+                    let n = [nn(idx[0]), nn(idx[1]), nn(idx[2])];
+                    if n.iter().all(|v| v.is_finite() && *v != Vec3::ZERO) {
+                        Some(n)
+                    } else {
+                        None
+                    }
+                } else {
+                    None
+                };
+                let uv = if has_uv {
+                    let t = |i: u32| {
+                        let i = i as usize * 2;
+                        Vec2::new(mesh.texcoords[i], mesh.texcoords[i + 1])
+                    };
+                    let uv = [t(idx[0]), t(idx[1]), t(idx[2])];
+                    if uv.iter().any(|v| !v.is_finite()) {
+                        return Err(obj_err(format!(
+                            "object {:?}, face {}: texture coordinate is NaN or infinite",
+                            model.name,
+                            f + 1
+                        )));
+                    }
+                    uv
+                } else {
+                    [Vec2::ZERO; 3]
+                };
+                self.tris.push(TriangleAttributes {
+                    p,
+                    n,
+                    uv,
+                    material,
+                    light: u32::MAX,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn default_material(&mut self) -> u32 {
+        *self.default_material.get_or_insert_with(|| {
+            self.materials.push(Material {
+                name: "(default)".into(),
+                kind: MaterialKind::Diffuse,
+                kd: ColorSource::Constant(Vec3::splat(0.8)),
+                ks: ColorSource::Constant(Vec3::ZERO),
+                transmittance: Vec3::ONE,
+                emission: None,
+            });
+            self.materials.len() as u32 - 1
+        })
+    }
+}
+
+/// Checks every `v`/`vn`/`vt` line for non-finite numbers so the error can name the line.
+fn check_vertex_lines(text: &[u8]) -> Result<(), String> {
+    for (lineno, line) in text.split(|&c| c == b'\n').enumerate() {
+        let line = String::from_utf8_lossy(line);
+        let mut toks = line.split_whitespace();
+        let Some(kw) = toks.next() else { continue };
+        if !matches!(kw, "v" | "vn" | "vt") {
+            continue;
+        }
+        for t in toks {
+            if let Ok(x) = t.parse::<f32>()
+                && !x.is_finite()
+            {
+                return Err(format!(
+                    "line {}: `{kw}` has a NaN or infinite value ({t})",
+                    lineno + 1
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texture_spec_options() {
+        let s = parse_texture_spec("-mm 0 0.4 screen.png").unwrap();
+        assert_eq!(s, TextureSpec { file: "screen.png".into(), base: 0.0, gain: 0.4 });
+        let s = parse_texture_spec("-s 1 1 1 -bm 0.5 my tex.png").unwrap();
+        assert_eq!(s.file, "my tex.png");
+        assert_eq!(parse_texture_spec("wall.png").unwrap().file, "wall.png");
+        assert!(parse_texture_spec("").is_none());
+    }
+
+    #[test]
+    fn vertex_line_check_names_the_line() {
+        let e = check_vertex_lines(b"# x\nv 0 0 0\nv 1 nan 0\n").unwrap_err();
+        assert!(e.contains("line 3"), "{e}");
+        assert!(check_vertex_lines(b"v 1 2 3\nvt 0.5 0.5\n").is_ok());
+    }
+
+    #[test]
+    fn unknown_keys_are_errors() {
+        let text = "[camera]\nposition=[0,0,0]\nlook_at=[0,0,-1]\nvfov_deg=40\nresolution=[4,4]\nfoo=1\n";
+        let e = SceneDescription::parse(text, Path::new("x.toml")).unwrap_err().to_string();
+        assert!(e.contains("x.toml") && e.contains("foo"), "{e}");
+        let text = "[camera]\nposition=[0,0,0]\nlook_at=[0,0,-1]\nvfov_deg=40\nresolution=[4,4]\n\
+                    [[light]]\ntype=\"quad\"\ncorner=[0,0,0]\nedge1=[1,0,0]\nedge2=[0,1,0]\nradiance=[1,1,1]\nbogus=2\n";
+        let e = SceneDescription::parse(text, Path::new("x.toml")).unwrap_err().to_string();
+        assert!(e.contains("bogus"), "{e}");
+    }
+}

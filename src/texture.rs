@@ -1,0 +1,133 @@
+//! Image textures: linear RGB, bilinear filtering, repeat wrapping.
+
+use crate::error::{SceneError, SceneResult};
+use glam::{Vec2, Vec3};
+use std::path::Path;
+
+/// An RGB image texture in linear Rec.709 values.
+///
+/// 8- and 16-bit images are taken as sRGB-encoded and decoded with the sRGB EOTF (IEC
+/// 61966-2-1); floating-point images (Radiance `.hdr`, EXR) are taken as linear. Alpha is
+/// ignored.
+#[derive(Clone, Debug)]
+pub struct Texture {
+    width: usize,
+    height: usize,
+    /// Row-major texels, row 0 at the top of the image.
+    texels: Vec<Vec3>,
+    mean: Vec3,
+}
+
+/// sRGB EOTF: encoded value in [0,1] to linear (IEC 61966-2-1).
+#[inline]
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+impl Texture {
+    /// Loads an image file through the `image` crate.
+    ///
+    /// # Errors
+    /// [`SceneError::Texture`] when the file is missing, unreadable, empty or not a supported
+    /// image (PNG, JPEG, Radiance HDR).
+    pub fn load(path: &Path) -> SceneResult<Texture> {
+        let err = |message: String| SceneError::Texture {
+            path: path.to_path_buf(),
+            message,
+        };
+        let reader = image::ImageReader::open(path)
+            .map_err(|e| err(e.to_string()))?
+            .with_guessed_format()
+            .map_err(|e| err(e.to_string()))?;
+        let img = reader.decode().map_err(|e| err(e.to_string()))?;
+        let linear = matches!(
+            img.color(),
+            image::ColorType::Rgb32F | image::ColorType::Rgba32F
+        );
+        let rgb = img.into_rgb32f();
+        let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+        if w == 0 || h == 0 {
+            return Err(err("image has zero size".into()));
+        }
+        let texels: Vec<Vec3> = rgb
+            .pixels()
+            .map(|p| {
+                let c = Vec3::new(p.0[0], p.0[1], p.0[2]);
+                if linear {
+                    c.max(Vec3::ZERO)
+                } else {
+                    Vec3::new(srgb_to_linear(c.x), srgb_to_linear(c.y), srgb_to_linear(c.z))
+                }
+            })
+            .collect();
+        if texels.iter().any(|t| !t.is_finite()) {
+            return Err(err("image contains NaN or infinite values".into()));
+        }
+        Ok(Texture::from_texels(w, h, texels))
+    }
+
+    /// A texture from row-major linear texels (row 0 at the top).
+    ///
+    /// # Panics
+    /// If `texels.len() != width * height` or the size is zero.
+    pub fn from_texels(width: usize, height: usize, texels: Vec<Vec3>) -> Texture {
+        assert!(width > 0 && height > 0 && texels.len() == width * height);
+        let mean = texels.iter().copied().sum::<Vec3>() / texels.len() as f32;
+        Texture {
+            width,
+            height,
+            texels,
+            mean,
+        }
+    }
+
+    /// Mean texel value (used to weight emissive textures when choosing lights).
+    pub fn mean(&self) -> Vec3 {
+        self.mean
+    }
+
+    /// Bilinearly filtered value at texture coordinates `uv` (OBJ convention: v = 0 at the
+    /// bottom of the image), wrapping with period 1.
+    #[inline]
+    pub fn lookup(&self, uv: Vec2) -> Vec3 {
+        let x = uv.x.rem_euclid(1.0) * self.width as f32 - 0.5;
+        let y = (1.0 - uv.y.rem_euclid(1.0)) * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let wrap = |i: i64, n: usize| i.rem_euclid(n as i64) as usize;
+        let (xi, yi) = (x0 as i64, y0 as i64);
+        let t = |dx: i64, dy: i64| {
+            self.texels[wrap(yi + dy, self.height) * self.width + wrap(xi + dx, self.width)]
+        };
+        (t(0, 0) * (1.0 - fx) + t(1, 0) * fx) * (1.0 - fy) + (t(0, 1) * (1.0 - fx) + t(1, 1) * fx) * fy
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_decode_matches_standard() {
+        // IEC 61966-2-1: encoded 0.5 → 0.21404, 1 → 1, 0.04045 → 0.003130.
+        assert!((srgb_to_linear(0.5) - 0.214_041).abs() < 1e-5);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-6);
+        assert!((srgb_to_linear(0.04045) - 0.003_130_8).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bilinear_lookup_interpolates_and_wraps() {
+        let t = Texture::from_texels(2, 1, vec![Vec3::ZERO, Vec3::ONE]);
+        // Texel centres at u = 0.25 and 0.75.
+        assert!((t.lookup(Vec2::new(0.25, 0.5)) - Vec3::ZERO).length() < 1e-6);
+        assert!((t.lookup(Vec2::new(0.75, 0.5)) - Vec3::ONE).length() < 1e-6);
+        assert!((t.lookup(Vec2::new(0.5, 0.5)) - Vec3::splat(0.5)).length() < 1e-6);
+        // Halfway between texel 1 and the wrapped texel 0.
+        assert!((t.lookup(Vec2::new(1.0, 0.5)) - Vec3::splat(0.5)).length() < 1e-6);
+        assert!((t.lookup(Vec2::new(1.75, 0.5)) - Vec3::ONE).length() < 1e-6);
+    }
+}
