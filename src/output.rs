@@ -153,8 +153,10 @@ pub fn write_exr(
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
+    // Single-threaded so that block order, and hence the file's bytes, never depend on scheduling.
     Image::from_layer(layer)
         .write()
+        .non_parallel()
         .to_buffered(w)
         .map_err(|e| OutputError::Encode {
             path: dest.to_path_buf(),

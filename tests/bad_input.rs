@@ -1,0 +1,197 @@
+//! Every kind of bad input gives a clear message naming the file and the problem, exit status
+//! 2, no panic, and no output file (not even a temporary one).
+
+use crate::util::*;
+use std::path::Path;
+use std::process::Command;
+
+const CAMERA: &str = "[camera]\nposition = [0, 1, 3]\nlook_at = [0, 1, 0]\nvfov_deg = 40\nresolution = [8, 8]\n";
+const LIGHT: &str = "[[light]]\ntype = \"quad\"\ncorner = [-0.5, 1.9, -0.5]\nedge1 = [1, 0, 0]\nedge2 = [0, 0, 1]\nradiance = [1, 1, 1]\n";
+const TRI_OBJ: &str = "mtllib m.mtl\nv -1 0 -1\nv 1 0 -1\nv 0 0 1\nusemtl white\nf 1 2 3\n";
+const MTL: &str = "newmtl white\nKd 0.5 0.5 0.5\n";
+
+/// Runs `aleph render` on `scene` with output into `dir`, expects failure, and returns stderr.
+fn fails(dir: &Path, scene: &Path, extra: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(dir.join("out"))
+        .args(extra)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(2), "expected exit 2, stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let left: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| n.starts_with("out") || n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "output files were written: {left:?}");
+    stderr
+}
+
+fn scene_with(dir: &Path, toml: &str, files: &[(&str, &str)]) -> std::path::PathBuf {
+    write_files(dir, files);
+    let p = dir.join("scene.toml");
+    std::fs::write(&p, toml).unwrap();
+    p
+}
+
+fn assert_mentions(stderr: &str, words: &[&str]) {
+    for w in words {
+        assert!(stderr.contains(w), "stderr lacks {w:?}: {stderr}");
+    }
+}
+
+#[test]
+fn missing_scene_file() {
+    let d = tempdir();
+    let e = fails(d.path(), &d.path().join("nope.toml"), &[]);
+    assert_mentions(&e, &["nope.toml", "cannot read"]);
+}
+
+#[test]
+fn scene_path_is_a_directory() {
+    let d = tempdir();
+    std::fs::create_dir(d.path().join("sub.toml")).unwrap();
+    let e = fails(d.path(), &d.path().join("sub.toml"), &[]);
+    assert_mentions(&e, &["sub.toml", "cannot read"]);
+}
+
+#[test]
+fn malformed_toml() {
+    let d = tempdir();
+    let s = scene_with(d.path(), "[camera\nposition = 1", &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "line 1"]);
+}
+
+#[test]
+fn unknown_key() {
+    let d = tempdir();
+    let toml = format!("{CAMERA}fov = 3\n{LIGHT}");
+    let s = scene_with(d.path(), &toml, &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "unknown field", "fov"]);
+}
+
+#[test]
+fn missing_obj() {
+    let d = tempdir();
+    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"missing.obj\"\n");
+    let s = scene_with(d.path(), &toml, &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["missing.obj", "cannot read"]);
+}
+
+#[test]
+fn missing_mtl() {
+    let d = tempdir();
+    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n");
+    let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["m.mtl", "MTL", "not found"]);
+}
+
+#[test]
+fn missing_texture() {
+    let d = tempdir();
+    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n");
+    let mtl = "newmtl white\nKd 0.5 0.5 0.5\nmap_Kd nothere.png\n";
+    let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", mtl)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["nothere.png", "texture"]);
+}
+
+#[test]
+fn corrupt_texture() {
+    let d = tempdir();
+    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n");
+    let mtl = "newmtl white\nKd 0.5 0.5 0.5\nmap_Kd bad.png\n";
+    let s = scene_with(
+        d.path(),
+        &toml,
+        &[("t.obj", TRI_OBJ), ("m.mtl", mtl), ("bad.png", "this is not a PNG")],
+    );
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["bad.png", "texture"]);
+}
+
+#[test]
+fn no_light() {
+    let d = tempdir();
+    let toml = format!("{CAMERA}[[mesh]]\nfile = \"t.obj\"\n");
+    let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", MTL)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "no light"]);
+}
+
+#[test]
+fn nan_and_infinite_vertices() {
+    for bad in ["nan", "inf", "-inf", "NaN"] {
+        let d = tempdir();
+        let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n");
+        let obj = TRI_OBJ.replace("v 1 0 -1", &format!("v 1 {bad} -1"));
+        let s = scene_with(d.path(), &toml, &[("t.obj", &obj), ("m.mtl", MTL)]);
+        let e = fails(d.path(), &s, &[]);
+        assert_mentions(&e, &["t.obj", "line 3", "NaN or infinite"]);
+    }
+}
+
+#[test]
+fn malformed_obj_face() {
+    let d = tempdir();
+    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n");
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";
+    let s = scene_with(d.path(), &toml, &[("t.obj", obj)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["t.obj", "invalid OBJ"]);
+}
+
+#[test]
+fn zero_resolution_in_scene_and_on_command_line() {
+    let d = tempdir();
+    let toml = format!("{}{LIGHT}", CAMERA.replace("[8, 8]", "[0, 8]"));
+    let s = scene_with(d.path(), &toml, &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "resolution", "0×8"]);
+
+    let d = tempdir();
+    let s = scene_with(d.path(), &format!("{CAMERA}{LIGHT}"), &[]);
+    let out = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(["render", "--resolution", "0x4", "-o"])
+        .arg(d.path().join("out"))
+        .arg(&s)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("resolution"), "{e}");
+    assert!(!d.path().join("out.exr").exists());
+}
+
+#[test]
+fn unknown_material_override() {
+    let d = tempdir();
+    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n[materials.nosuch]\ntype = \"mirror\"\n");
+    let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", MTL)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "nosuch", "white"]);
+}
+
+#[test]
+fn output_directory_missing() {
+    let d = tempdir();
+    let s = scene_with(d.path(), &format!("{CAMERA}{LIGHT}"), &[]);
+    let out = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(["render", "-o"])
+        .arg(d.path().join("no/such/dir/out"))
+        .arg(&s)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("out.exr") && e.contains("cannot write"), "{e}");
+}

@@ -1,0 +1,85 @@
+//! White-furnace tests: closed enclosures whose radiance is known analytically.
+
+use crate::util::*;
+use aleph::integrator::Strategy;
+use aleph::scene::Scene;
+
+/// Builds a scene of a cube enclosure [-2,2]³ (faces inward) around a cube object [-1,1]³ (faces
+/// outward), with the camera between them looking at the object's +z face, which fills the view.
+fn furnace_scene(dir: &std::path::Path, enclosure_mtl: &str, object_mtl: &str) -> Scene {
+    let obj = format!(
+        "mtllib m.mtl\no enclosure\n{}o object\n{}",
+        cube_obj(2.0, true, "enc", 0),
+        cube_obj(1.0, false, "obj", 8)
+    );
+    let mtl = format!("newmtl enc\n{enclosure_mtl}\nnewmtl obj\n{object_mtl}\n");
+    let toml = r#"
+[camera]
+position = [0.0, 0.0, 1.9]
+look_at = [0.0, 0.0, 0.0]
+vfov_deg = 60.0
+resolution = [12, 12]
+[render]
+max_depth = 64
+seed = 3
+[[mesh]]
+file = "f.obj"
+"#;
+    write_files(dir, &[("f.obj", &obj), ("m.mtl", &mtl), ("scene.toml", toml)]);
+    Scene::load(&dir.join("scene.toml")).unwrap()
+}
+
+/// Every surface has albedo ρ and emits Le: the rendering equation's solution is the constant
+/// L = Le / (1 − ρ) (a geometric series over bounces), which needs every bounce that Russian
+/// roulette keeps alive. Checked per pixel (Šidák-corrected z-test) and over the image.
+#[test]
+fn uniform_emitting_enclosure_converges_to_le_over_one_minus_rho() {
+    let dir = tempdir();
+    let (rho, le) = (0.5f64, 1.0f64);
+    let m = format!("Kd {rho} {rho} {rho}\nKe {le} {le} {le}");
+    let scene = furnace_scene(dir.path(), &m, &m);
+    let expected = le / (1.0 - rho);
+    for strategy in [Strategy::Mis, Strategy::LightOnly, Strategy::BsdfOnly] {
+        let film = render(&scene, strategy, 512);
+        let z = sidak_z(0.01, film.len());
+        // Light-only sampling of an enclosure whose emitting walls meet at right angles has a
+        // 1/d² weight for receivers near the edges: its per-pixel sample variance is unreliable
+        // (a few rare huge samples), so it is tested on the image mean only. MIS weights are
+        // bounded, BSDF-only samples are too, so their per-pixel z-tests are valid.
+        let per_pixel = strategy != Strategy::LightOnly;
+        for p in film.pixels.iter().filter(|_| per_pixel) {
+            let y = aleph::math::luminance(p.mean().as_vec3()) as f64;
+            let se = p.lum_std_error();
+            assert!((y - expected).abs() <= z * se, "{strategy:?}: pixel {y} vs {expected} (se {se})");
+        }
+        let (mean, se) = image_mean_and_se(&film);
+        assert!((mean - expected).abs() <= 4.0 * se, "{strategy:?}: {mean} ± {se} vs {expected}");
+        // The standard error is small enough for the test to mean something: within 1 %.
+        assert!(se < 0.01 * expected, "se {se}");
+    }
+}
+
+/// A convex diffuse object of albedo ρ inside a black enclosure that emits Le towards it sees
+/// only the enclosure, so its reflected radiance is exactly ρ·Le.
+#[test]
+fn convex_object_in_emitting_black_enclosure_reflects_rho_le() {
+    let dir = tempdir();
+    let (rho, le) = (0.6f64, 2.0f64);
+    let scene = furnace_scene(
+        dir.path(),
+        &format!("Kd 0 0 0\nKe {le} {le} {le}"),
+        &format!("Kd {rho} {rho} {rho}"),
+    );
+    let expected = rho * le;
+    for strategy in [Strategy::Mis, Strategy::LightOnly, Strategy::BsdfOnly] {
+        let film = render(&scene, strategy, 256);
+        let z = sidak_z(0.01, film.len());
+        for p in &film.pixels {
+            let y = aleph::math::luminance(p.mean().as_vec3()) as f64;
+            let se = p.lum_std_error();
+            assert!((y - expected).abs() <= z * se.max(1e-6), "{strategy:?}: {y} vs {expected} (se {se})");
+        }
+        let (mean, se) = image_mean_and_se(&film);
+        assert!((mean - expected).abs() <= 4.0 * se.max(1e-6), "{strategy:?}: {mean} ± {se}");
+    }
+}

@@ -1,0 +1,9 @@
+//! aleph's integration tests: one binary, a module per area (ripgrep's layout).
+
+mod util;
+
+mod bad_input;
+mod determinism;
+mod furnace;
+mod reference;
+mod strategies;
