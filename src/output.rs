@@ -209,3 +209,23 @@ pub fn expose(rgb: &[f32], exposure_ev: f32) -> Vec<f32> {
     let k = exposure_ev.exp2();
     rgb.iter().map(|&c| (c * k).clamp(0.0, 1.0)).collect()
 }
+
+/// Exposure in stops that maps the log-average luminance of linear `rgb` to middle grey 0.18
+/// (the "key" of Reinhard et al. 2002, eq. 1–2, used here as a constant scale factor):
+/// EV = log2(0.18 / exp(mean(ln(1e-4 + Y)))). Returns 0 for an empty or all-black image.
+pub fn auto_exposure_ev(rgb: &[f32]) -> f32 {
+    let mut sum = 0.0f64;
+    let mut n = 0usize;
+    for p in rgb.chunks_exact(3) {
+        let y = perception::photometry::luminance(p[0], p[1], p[2]);
+        if y.is_finite() && y > 0.0 {
+            sum += (1e-4 + y as f64).ln();
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return 0.0;
+    }
+    let log_avg = (sum / n as f64).exp();
+    (0.18 / log_avg).log2() as f32
+}

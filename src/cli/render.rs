@@ -2,7 +2,7 @@
 
 use super::{parse_resolution, with_threads};
 use aleph::integrator::Strategy;
-use aleph::output::{AtomicOutputs, ChannelData, encode_srgb8, expose, write_exr, write_png};
+use aleph::output::{AtomicOutputs, auto_exposure_ev, ChannelData, encode_srgb8, expose, write_exr, write_png};
 use aleph::render::render_uniform;
 use aleph::scene::{Scene, SceneDescription};
 use anyhow::Context;
@@ -43,9 +43,10 @@ pub struct RenderArgs {
     /// Maximum path depth (overrides render.max_depth).
     #[arg(long, value_name = "N")]
     max_depth: Option<u32>,
-    /// Exposure of the PNG in stops (radiance × 2^EV before sRGB encoding).
-    #[arg(long, value_name = "EV", default_value_t = 0.0, allow_negative_numbers = true)]
-    exposure: f32,
+    /// Exposure of the PNG in stops (radiance × 2^EV before sRGB encoding). Default: automatic,
+    /// mapping the log-average luminance to 0.18.
+    #[arg(long, value_name = "EV", allow_negative_numbers = true)]
+    exposure: Option<f32>,
 }
 
 /// Output stem: explicit, or the scene's name (its directory's name for `scene.toml`).
@@ -78,7 +79,7 @@ fn with_ext(stem: &Path, ext: &str) -> PathBuf {
 
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let scene_path = args.scene.clone().unwrap_or_else(default_scene);
-    if !args.exposure.is_finite() {
+    if args.exposure.is_some_and(|e| !e.is_finite()) {
         anyhow::bail!("--exposure must be a finite number of stops");
     }
     let mut desc = SceneDescription::read(&scene_path)?;
@@ -100,7 +101,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     with_threads(threads, move || render_and_write(desc, &stem, exposure))?
 }
 
-fn render_and_write(desc: SceneDescription, stem: &Path, exposure: f32) -> anyhow::Result<ExitCode> {
+fn render_and_write(desc: SceneDescription, stem: &Path, exposure: Option<f32>) -> anyhow::Result<ExitCode> {
     let scene = Scene::load_description(desc)?;
     let (w, h) = (scene.camera.width, scene.camera.height);
     let spp = scene.settings.spp;
@@ -134,13 +135,14 @@ fn render_and_write(desc: SceneDescription, stem: &Path, exposure: f32) -> anyho
             &attributes,
         )
     })?;
-    let display = encode_srgb8(&expose(&rgb, exposure));
+    let ev = exposure.unwrap_or_else(|| auto_exposure_ev(&rgb));
+    let display = encode_srgb8(&expose(&rgb, ev));
     out.stage(&png_path, |wr| write_png(wr, &png_path, w, h, &display))?;
     out.commit().context("writing outputs")?;
 
     let secs = stats.wall.as_secs_f64().max(1e-9);
     println!(
-        "{}: {w}×{h}, {spp} spp, {:.2} s, {:.2} M samples/s, {:.2} M rays/s, {} non-finite samples dropped -> {}, {}",
+        "{}: {w}×{h}, {spp} spp, {:.2} s, {:.2} M samples/s, {:.2} M rays/s, {} non-finite samples dropped -> {}, {} ({ev:+.2} EV)",
         scene.path.display(),
         secs,
         stats.samples as f64 / secs / 1e6,
