@@ -136,12 +136,22 @@ pub fn chi2_test(
 
 /// ∫∫ f(z, φ) dz dφ over a rectangle: a 4×4 midpoint rule, refined by quadrisection while the
 /// refined and coarse estimates differ by more than 1e-8 (absolute probability), to depth 7.
-fn integrate_rect(f: &impl Fn(f64, f64) -> f64, z0: f64, p0: f64, dz: f64, dp: f64, depth: u32) -> f64 {
+fn integrate_rect(
+    f: &impl Fn(f64, f64) -> f64,
+    z0: f64,
+    p0: f64,
+    dz: f64,
+    dp: f64,
+    depth: u32,
+) -> f64 {
     let mid = |z0: f64, p0: f64, dz: f64, dp: f64| -> f64 {
         let mut acc = 0.0;
         for a in 0..4 {
             for b in 0..4 {
-                acc += f(z0 + (a as f64 + 0.5) * dz / 4.0, p0 + (b as f64 + 0.5) * dp / 4.0);
+                acc += f(
+                    z0 + (a as f64 + 0.5) * dz / 4.0,
+                    p0 + (b as f64 + 0.5) * dp / 4.0,
+                );
             }
         }
         acc / 16.0 * dz * dp
@@ -264,7 +274,13 @@ mod tests {
             200_000,
             1,
             |_, u| Some(square_to_cosine_hemisphere(u)),
-            |w| if w.z > 0.0 { 0.5 / std::f32::consts::PI } else { 0.0 },
+            |w| {
+                if w.z > 0.0 {
+                    0.5 / std::f32::consts::PI
+                } else {
+                    0.0
+                }
+            },
         );
         assert!(bad.p_value < 1e-6, "{bad:?}");
     }

@@ -30,7 +30,7 @@ impl PixelStats {
     #[inline]
     pub fn add(&mut self, rgb: Vec3) {
         let v = rgb.as_dvec3();
-        if self.n % 2 == 0 {
+        if self.n.is_multiple_of(2) {
             self.sum_even += v;
         } else {
             self.sum_odd += v;
@@ -66,14 +66,22 @@ impl PixelStats {
     #[inline]
     pub fn mean_even(&self) -> DVec3 {
         let n = self.n_even();
-        if n == 0 { DVec3::ZERO } else { self.sum_even / n as f64 }
+        if n == 0 {
+            DVec3::ZERO
+        } else {
+            self.sum_even / n as f64
+        }
     }
 
     /// Mean of half-buffer B (zero when empty).
     #[inline]
     pub fn mean_odd(&self) -> DVec3 {
         let n = self.n_odd();
-        if n == 0 { DVec3::ZERO } else { self.sum_odd / n as f64 }
+        if n == 0 {
+            DVec3::ZERO
+        } else {
+            self.sum_odd / n as f64
+        }
     }
 
     /// Unbiased sample variance of the luminance of one sample (0 with fewer than 2 samples).

@@ -45,7 +45,9 @@ impl TriangleAttributes {
     /// Surface area.
     #[inline]
     pub fn area(&self) -> f32 {
-        0.5 * (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0]).length()
+        0.5 * (self.p[1] - self.p[0])
+            .cross(self.p[2] - self.p[0])
+            .length()
     }
 }
 
@@ -240,5 +242,9 @@ impl Geometry {
 #[inline]
 pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
     let eps = 1e-4 + 2e-5 * p.abs().max_element();
-    if w.dot(ng) >= 0.0 { p + ng * eps } else { p - ng * eps }
+    if w.dot(ng) >= 0.0 {
+        p + ng * eps
+    } else {
+        p - ng * eps
+    }
 }

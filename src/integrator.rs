@@ -65,7 +65,9 @@ impl Integrator {
         let mut depth = 0u32;
         loop {
             rays += 1;
-            let Some(hit) = geo.intersect(&ray) else { break };
+            let Some(hit) = geo.intersect(&ray) else {
+                break;
+            };
             let tri = &geo.tris[hit.tri as usize];
             let material = &scene.materials[tri.material as usize];
             let wo_world = -ray.d;
@@ -109,34 +111,35 @@ impl Integrator {
             // Next-event estimation.
             let uc_light = rng.uniform();
             let u_light = rng.uniform2();
-            if !bsdf.is_delta() && self.strategy != Strategy::BsdfOnly {
-                if let Some(ls) = scene.lights.sample(
+            if !bsdf.is_delta()
+                && self.strategy != Strategy::BsdfOnly
+                && let Some(ls) = scene.lights.sample(
                     hit.p,
                     uc_light,
                     u_light,
                     &geo.tris,
                     &scene.materials,
                     &scene.textures,
-                ) && ls.le.max_element() > 0.0
-                    && ls.pdf > 0.0
-                    && ls.wi.dot(ng_side) > 0.0
-                {
-                    let wi = frame.to_local(ls.wi);
-                    let f = bsdf.eval(wo, wi);
-                    if f.max_element() > 0.0 {
-                        let o = offset_origin(hit.p, hit.ng, ls.wi);
-                        let target = offset_origin(ls.p, ls.n, -ls.wi);
-                        let d = target - o;
-                        let dist = d.length();
-                        rays += 1;
-                        if dist > 0.0 && geo.unoccluded(o, d / dist, dist) {
-                            let w = if self.strategy == Strategy::Mis {
-                                power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
-                            } else {
-                                1.0
-                            };
-                            l += beta * f * wi.z.abs() * ls.le * (w / ls.pdf);
-                        }
+                )
+                && ls.le.max_element() > 0.0
+                && ls.pdf > 0.0
+                && ls.wi.dot(ng_side) > 0.0
+            {
+                let wi = frame.to_local(ls.wi);
+                let f = bsdf.eval(wo, wi);
+                if f.max_element() > 0.0 {
+                    let o = offset_origin(hit.p, hit.ng, ls.wi);
+                    let target = offset_origin(ls.p, ls.n, -ls.wi);
+                    let d = target - o;
+                    let dist = d.length();
+                    rays += 1;
+                    if dist > 0.0 && geo.unoccluded(o, d / dist, dist) {
+                        let w = if self.strategy == Strategy::Mis {
+                            power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
+                        } else {
+                            1.0
+                        };
+                        l += beta * f * wi.z.abs() * ls.le * (w / ls.pdf);
                     }
                 }
             }
@@ -144,7 +147,9 @@ impl Integrator {
             // BSDF sampling.
             let uc = rng.uniform();
             let u = rng.uniform2();
-            let Some(s) = bsdf.sample(wo, uc, u) else { break };
+            let Some(s) = bsdf.sample(wo, uc, u) else {
+                break;
+            };
             if s.pdf <= 0.0 {
                 break;
             }
@@ -171,7 +176,7 @@ impl Integrator {
             depth += 1;
 
             if depth >= RR_START_DEPTH {
-                let q = beta.max_element().min(1.0).max(0.05);
+                let q = beta.max_element().clamp(0.05, 1.0);
                 if rng.uniform() >= q {
                     break;
                 }

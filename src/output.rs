@@ -63,7 +63,10 @@ impl AtomicOutputs {
             Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        let name = dest.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        let name = dest
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default();
         let tmp = tempfile::Builder::new()
             .prefix(&format!(".{name}."))
             .suffix(".tmp")
@@ -143,7 +146,10 @@ pub fn write_exr(
     let mut attrs = LayerAttributes::default();
     let mut other = HashMap::new();
     for (k, v) in attributes {
-        other.insert(Text::from(k.as_str()), AttributeValue::Text(Text::from(v.as_str())));
+        other.insert(
+            Text::from(k.as_str()),
+            AttributeValue::Text(Text::from(v.as_str())),
+        );
     }
     attrs.other = other;
     attrs.software_name = Some(Text::from(concat!("aleph ", env!("CARGO_PKG_VERSION"))));

@@ -33,6 +33,7 @@ impl std::ops::AddAssign for RenderStats {
 
 /// Takes the next `count` samples (indices `n .. n + count`) of pixel `index` = y·width + x.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn sample_pixel(
     scene: &Scene,
     integrator: &Integrator,
@@ -75,7 +76,10 @@ pub fn render_counts(
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderStats {
     assert_eq!(counts.len(), film.len());
-    assert_eq!((film.width, film.height), (scene.camera.width, scene.camera.height));
+    assert_eq!(
+        (film.width, film.height),
+        (scene.camera.width, scene.camera.height)
+    );
     let start = Instant::now();
     let rays = AtomicU64::new(0);
     let nonfinite = AtomicU64::new(0);
@@ -88,7 +92,9 @@ pub fn render_counts(
         .for_each(|(y, (row, row_counts))| {
             let (mut r, mut nf, mut s) = (0u64, 0u64, 0u64);
             for (x, (px, &c)) in row.iter_mut().zip(row_counts).enumerate() {
-                sample_pixel(scene, integrator, seed, x as u32, y as u32, px, c, &mut r, &mut nf);
+                sample_pixel(
+                    scene, integrator, seed, x as u32, y as u32, px, c, &mut r, &mut nf,
+                );
                 s += c as u64;
             }
             rays.fetch_add(r, Ordering::Relaxed);

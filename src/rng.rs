@@ -96,18 +96,24 @@ mod tests {
 
     #[test]
     fn streams_depend_only_on_their_key() {
-        let a: Vec<u32> = (0..8).map({
-            let mut r = Rng::for_sample(1, 2, 3);
-            move |_| r.next_u32()
-        }).collect();
-        let b: Vec<u32> = (0..8).map({
-            let mut r = Rng::for_sample(1, 2, 3);
-            move |_| r.next_u32()
-        }).collect();
-        let c: Vec<u32> = (0..8).map({
-            let mut r = Rng::for_sample(1, 2, 4);
-            move |_| r.next_u32()
-        }).collect();
+        let a: Vec<u32> = (0..8)
+            .map({
+                let mut r = Rng::for_sample(1, 2, 3);
+                move |_| r.next_u32()
+            })
+            .collect();
+        let b: Vec<u32> = (0..8)
+            .map({
+                let mut r = Rng::for_sample(1, 2, 3);
+                move |_| r.next_u32()
+            })
+            .collect();
+        let c: Vec<u32> = (0..8)
+            .map({
+                let mut r = Rng::for_sample(1, 2, 4);
+                move |_| r.next_u32()
+            })
+            .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
     }

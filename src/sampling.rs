@@ -134,7 +134,11 @@ impl Distribution1D {
             *c = (*c as f64 / acc) as f32;
         }
         *cdf.last_mut().unwrap() = 1.0;
-        Some(Distribution1D { weights, cdf, total: acc })
+        Some(Distribution1D {
+            weights,
+            cdf,
+            total: acc,
+        })
     }
 
     /// Number of items.
@@ -199,7 +203,10 @@ mod tests {
             let w = square_to_cosine_hemisphere(u);
             assert!((w.length() - 1.0).abs() < 1e-4);
             let back = cosine_hemisphere_to_square(w);
-            assert!((back - u).abs().max_element() < 2e-3, "{u:?} -> {w:?} -> {back:?}");
+            assert!(
+                (back - u).abs().max_element() < 2e-3,
+                "{u:?} -> {w:?} -> {back:?}"
+            );
         }
     }
 

@@ -60,7 +60,11 @@ impl Texture {
                 if linear {
                     c.max(Vec3::ZERO)
                 } else {
-                    Vec3::new(srgb_to_linear(c.x), srgb_to_linear(c.y), srgb_to_linear(c.z))
+                    Vec3::new(
+                        srgb_to_linear(c.x),
+                        srgb_to_linear(c.y),
+                        srgb_to_linear(c.z),
+                    )
                 }
             })
             .collect();
@@ -103,7 +107,8 @@ impl Texture {
         let t = |dx: i64, dy: i64| {
             self.texels[wrap(yi + dy, self.height) * self.width + wrap(xi + dx, self.width)]
         };
-        (t(0, 0) * (1.0 - fx) + t(1, 0) * fx) * (1.0 - fy) + (t(0, 1) * (1.0 - fx) + t(1, 1) * fx) * fy
+        (t(0, 0) * (1.0 - fx) + t(1, 0) * fx) * (1.0 - fy)
+            + (t(0, 1) * (1.0 - fx) + t(1, 1) * fx) * fy
     }
 }
 

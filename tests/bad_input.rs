@@ -5,7 +5,8 @@ use crate::util::*;
 use std::path::Path;
 use std::process::Command;
 
-const CAMERA: &str = "[camera]\nposition = [0, 1, 3]\nlook_at = [0, 1, 0]\nvfov_deg = 40\nresolution = [8, 8]\n";
+const CAMERA: &str =
+    "[camera]\nposition = [0, 1, 3]\nlook_at = [0, 1, 0]\nvfov_deg = 40\nresolution = [8, 8]\n";
 const LIGHT: &str = "[[light]]\ntype = \"quad\"\ncorner = [-0.5, 1.9, -0.5]\nedge1 = [1, 0, 0]\nedge2 = [0, 0, 1]\nradiance = [1, 1, 1]\n";
 const TRI_OBJ: &str = "mtllib m.mtl\nv -1 0 -1\nv 1 0 -1\nv 0 0 1\nusemtl white\nf 1 2 3\n";
 const MTL: &str = "newmtl white\nKd 0.5 0.5 0.5\n";
@@ -21,7 +22,11 @@ fn fails(dir: &Path, scene: &Path, extra: &[&str]) -> String {
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert_eq!(out.status.code(), Some(2), "expected exit 2, stderr: {stderr}");
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "expected exit 2, stderr: {stderr}"
+    );
     assert!(!stderr.contains("panicked"), "{stderr}");
     let left: Vec<_> = std::fs::read_dir(dir)
         .unwrap()
@@ -113,7 +118,11 @@ fn corrupt_texture() {
     let s = scene_with(
         d.path(),
         &toml,
-        &[("t.obj", TRI_OBJ), ("m.mtl", mtl), ("bad.png", "this is not a PNG")],
+        &[
+            ("t.obj", TRI_OBJ),
+            ("m.mtl", mtl),
+            ("bad.png", "this is not a PNG"),
+        ],
     );
     let e = fails(d.path(), &s, &[]);
     assert_mentions(&e, &["bad.png", "texture"]);
@@ -175,7 +184,9 @@ fn zero_resolution_in_scene_and_on_command_line() {
 #[test]
 fn unknown_material_override() {
     let d = tempdir();
-    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n[materials.nosuch]\ntype = \"mirror\"\n");
+    let toml = format!(
+        "{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n[materials.nosuch]\ntype = \"mirror\"\n"
+    );
     let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", MTL)]);
     let e = fails(d.path(), &s, &[]);
     assert_mentions(&e, &["scene.toml", "nosuch", "white"]);

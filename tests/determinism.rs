@@ -13,7 +13,10 @@ fn small_cornell() -> Scene {
 }
 
 fn render_on(threads: usize, scene: &Scene, spp: u32) -> Film {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     pool.install(|| render(scene, Strategy::Mis, spp))
 }
 
@@ -51,12 +54,25 @@ fn cli_output_is_identical_for_one_and_two_threads() {
     let dir = tempdir();
     let run = |threads: &str, out: &str| {
         let status = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
-            .args(["render", "--spp", "4", "--resolution", "32x24", "--threads", threads, "-o"])
+            .args([
+                "render",
+                "--spp",
+                "4",
+                "--resolution",
+                "32x24",
+                "--threads",
+                threads,
+                "-o",
+            ])
             .arg(dir.path().join(out))
             .arg(repo("scenes/cornell-box/scene.toml"))
             .output()
             .unwrap();
-        assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+        assert!(
+            status.status.success(),
+            "{}",
+            String::from_utf8_lossy(&status.stderr)
+        );
     };
     run("1", "a");
     run("2", "b");
@@ -69,11 +85,22 @@ fn cli_output_is_identical_for_one_and_two_threads() {
             .channel_data
             .list
             .iter()
-            .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().map(f32::to_bits).collect::<Vec<_>>()))
+            .map(|c| {
+                (
+                    c.name.to_string(),
+                    c.sample_data
+                        .values_as_f32()
+                        .map(f32::to_bits)
+                        .collect::<Vec<_>>(),
+                )
+            })
             .collect::<Vec<_>>()
     };
     let (a, b) = (channels("a.exr"), channels("b.exr"));
-    assert_eq!(a.iter().map(|c| c.0.clone()).collect::<Vec<_>>(), ["B", "G", "R", "spp"]);
+    assert_eq!(
+        a.iter().map(|c| c.0.clone()).collect::<Vec<_>>(),
+        ["B", "G", "R", "spp"]
+    );
     assert!(a == b, "EXR channels differ");
     assert!(read("a.png") == read("b.png"), "PNG files differ");
 }

@@ -25,7 +25,10 @@ seed = 3
 [[mesh]]
 file = "f.obj"
 "#;
-    write_files(dir, &[("f.obj", &obj), ("m.mtl", &mtl), ("scene.toml", toml)]);
+    write_files(
+        dir,
+        &[("f.obj", &obj), ("m.mtl", &mtl), ("scene.toml", toml)],
+    );
     Scene::load(&dir.join("scene.toml")).unwrap()
 }
 
@@ -50,10 +53,16 @@ fn uniform_emitting_enclosure_converges_to_le_over_one_minus_rho() {
         for p in film.pixels.iter().filter(|_| per_pixel) {
             let y = aleph::math::luminance(p.mean().as_vec3()) as f64;
             let se = p.lum_std_error();
-            assert!((y - expected).abs() <= z * se, "{strategy:?}: pixel {y} vs {expected} (se {se})");
+            assert!(
+                (y - expected).abs() <= z * se,
+                "{strategy:?}: pixel {y} vs {expected} (se {se})"
+            );
         }
         let (mean, se) = image_mean_and_se(&film);
-        assert!((mean - expected).abs() <= 4.0 * se, "{strategy:?}: {mean} ± {se} vs {expected}");
+        assert!(
+            (mean - expected).abs() <= 4.0 * se,
+            "{strategy:?}: {mean} ± {se} vs {expected}"
+        );
         // The standard error is small enough for the test to mean something: within 1 %.
         assert!(se < 0.01 * expected, "se {se}");
     }
@@ -77,9 +86,15 @@ fn convex_object_in_emitting_black_enclosure_reflects_rho_le() {
         for p in &film.pixels {
             let y = aleph::math::luminance(p.mean().as_vec3()) as f64;
             let se = p.lum_std_error();
-            assert!((y - expected).abs() <= z * se.max(1e-6), "{strategy:?}: {y} vs {expected} (se {se})");
+            assert!(
+                (y - expected).abs() <= z * se.max(1e-6),
+                "{strategy:?}: {y} vs {expected} (se {se})"
+            );
         }
         let (mean, se) = image_mean_and_se(&film);
-        assert!((mean - expected).abs() <= 4.0 * se.max(1e-6), "{strategy:?}: {mean} ± {se}");
+        assert!(
+            (mean - expected).abs() <= 4.0 * se.max(1e-6),
+            "{strategy:?}: {mean} ± {se}"
+        );
     }
 }

@@ -10,8 +10,9 @@ use aleph::scene::{Scene, SceneDescription};
 use std::collections::HashMap;
 
 fn read_reference() -> (usize, usize, HashMap<String, Vec<f32>>) {
-    let img = exr::prelude::read_all_flat_layers_from_file(repo("tests/data/cornell_mitsuba_32.exr"))
-        .expect("reference EXR");
+    let img =
+        exr::prelude::read_all_flat_layers_from_file(repo("tests/data/cornell_mitsuba_32.exr"))
+            .expect("reference EXR");
     let layer = &img.layer_data[0];
     let size = layer.size;
     let channels = layer
@@ -38,10 +39,10 @@ fn cornell_box_matches_mitsuba_reference_per_pixel() {
     let n = w * h;
     let z_max = sidak_z(0.01, n);
     let mut worst = (0.0f64, 0usize);
-    for i in 0..n {
-        let p = &film.pixels[i];
+    for (i, p) in film.pixels.iter().enumerate() {
         let ours = aleph::math::luminance(p.mean().as_vec3()) as f64;
-        let refy = 0.2126 * r["R"][i] as f64 + 0.7152 * r["G"][i] as f64 + 0.0722 * r["B"][i] as f64;
+        let refy =
+            0.2126 * r["R"][i] as f64 + 0.7152 * r["G"][i] as f64 + 0.0722 * r["B"][i] as f64;
         let se = (p.lum_std_error().powi(2) + (r["SE.Y"][i] as f64).powi(2)).sqrt();
         let z = (ours - refy).abs() / se;
         if z > worst.0 {
@@ -67,8 +68,14 @@ fn cornell_box_matches_mitsuba_reference_in_colour() {
     let mut ours = vec![[0f64; 3]; k];
     for (s, o) in ours.iter_mut().enumerate() {
         let rgb = render(&cornell(100 + s as u64), Strategy::Mis, 64).mean_rgb();
-        for c in 0..3 {
-            o[c] = rgb.iter().skip(c).step_by(3).map(|&v| v as f64).sum::<f64>() / (rgb.len() / 3) as f64;
+        for (c, oc) in o.iter_mut().enumerate() {
+            *oc = rgb
+                .iter()
+                .skip(c)
+                .step_by(3)
+                .map(|&v| v as f64)
+                .sum::<f64>()
+                / (rgb.len() / 3) as f64;
         }
     }
     for (c, name) in ["R", "G", "B"].iter().enumerate() {
@@ -78,9 +85,16 @@ fn cornell_box_matches_mitsuba_reference_in_colour() {
         let ref_mean = r[*name].iter().map(|&v| v as f64).sum::<f64>() / r[*name].len() as f64;
         // SE of the reference image mean: per-pixel SEs are correlated through nothing (pixels
         // are independent), so they add in quadrature.
-        let se_ref = r[&format!("SE.{name}")].iter().map(|&v| (v as f64).powi(2)).sum::<f64>().sqrt()
+        let se_ref = r[&format!("SE.{name}")]
+            .iter()
+            .map(|&v| (v as f64).powi(2))
+            .sum::<f64>()
+            .sqrt()
             / r[*name].len() as f64;
         let t = (m - ref_mean) / (se_ours.powi(2) + se_ref.powi(2)).sqrt();
-        assert!(t.abs() < 3.3, "{name}: aleph {m:.6} vs Mitsuba {ref_mean:.6} (t = {t:.2})");
+        assert!(
+            t.abs() < 3.3,
+            "{name}: aleph {m:.6} vs Mitsuba {ref_mean:.6} (t = {t:.2})"
+        );
     }
 }

@@ -50,7 +50,10 @@ fn nee_bsdf_and_mis_agree() {
         let (m1, s1) = image_mean_and_se(&mis);
         let (m2, s2) = image_mean_and_se(other);
         let se = (s1 * s1 + s2 * s2).sqrt();
-        assert!((m1 - m2).abs() <= 4.0 * se, "{name}: MIS {m1} vs {m2}, se {se}");
+        assert!(
+            (m1 - m2).abs() <= 4.0 * se,
+            "{name}: MIS {m1} vs {m2}, se {se}"
+        );
         if !per_pixel {
             continue;
         }

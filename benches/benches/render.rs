@@ -40,10 +40,14 @@ fn bvh_build(c: &mut Criterion) {
     let scene = cornell(8);
     let tris = scene.geometry.tris.clone();
     g.throughput(Throughput::Elements(tris.len() as u64));
-    g.bench_function("cornell_36_tris", |b| b.iter(|| Geometry::new(tris.clone())));
+    g.bench_function("cornell_36_tris", |b| {
+        b.iter(|| Geometry::new(tris.clone()))
+    });
     let big = terrain(500); // 500 000 triangles
     g.throughput(Throughput::Elements(big.len() as u64));
-    g.bench_function("terrain_500k_tris", |b| b.iter(|| Geometry::new(big.clone())));
+    g.bench_function("terrain_500k_tris", |b| {
+        b.iter(|| Geometry::new(big.clone()))
+    });
     g.finish();
 }
 

@@ -31,7 +31,11 @@ pub fn luminance(r: f32, g: f32, b: f32) -> f32 {
 /// # Panics
 /// If `rgb.len()` is not a multiple of 3.
 pub fn luminance_image(rgb: &[f32], scale_cd_m2: f32) -> Vec<f32> {
-    assert!(rgb.len() % 3 == 0, "RGB buffer length {} is not a multiple of 3", rgb.len());
+    assert!(
+        rgb.len().is_multiple_of(3),
+        "RGB buffer length {} is not a multiple of 3",
+        rgb.len()
+    );
     rgb.chunks_exact(3)
         .map(|p| luminance(p[0], p[1], p[2]) * scale_cd_m2)
         .collect()

@@ -17,7 +17,11 @@ fn smooth_cases() -> Vec<(String, Bsdf)> {
     for alpha in [0.05, 0.2, 0.5, 1.0] {
         v.push((
             format!("glossy-a{alpha}"),
-            Bsdf::Glossy(Glossy::new(Vec3::new(0.3, 0.2, 0.1), Vec3::splat(0.6), alpha)),
+            Bsdf::Glossy(Glossy::new(
+                Vec3::new(0.3, 0.2, 0.1),
+                Vec3::splat(0.6),
+                alpha,
+            )),
         ));
         v.push((
             format!("ggx-only-a{alpha}"),
@@ -70,7 +74,10 @@ fn sample_values_agree_with_eval_and_pdf() {
             if let Some(s) = bsdf.sample(wo, rng.uniform(), rng.uniform2()) {
                 let f = bsdf.eval(wo, s.wi);
                 let pdf = bsdf.pdf(wo, s.wi);
-                assert!(((s.f - f).abs().max_element()) <= 1e-4 * f.max_element().max(1.0), "{name}");
+                assert!(
+                    ((s.f - f).abs().max_element()) <= 1e-4 * f.max_element().max(1.0),
+                    "{name}"
+                );
                 assert!((s.pdf - pdf).abs() <= 1e-4 * pdf.max(1.0), "{name}");
             }
         }
@@ -136,7 +143,10 @@ fn energy_conservation_by_sampling() {
             }
             let mean = s1 / n as f64;
             let se = ((s2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
-            assert!(mean <= 1.0 + 4.0 * se, "{name} θo={th}: albedo {mean} ± {se}");
+            assert!(
+                mean <= 1.0 + 4.0 * se,
+                "{name} θo={th}: albedo {mean} ± {se}"
+            );
         }
     }
 }
@@ -153,7 +163,10 @@ fn reciprocity() {
             let f_ab = bsdf.eval(a, b);
             let f_ba = bsdf.eval(b, a);
             let tol = 1e-5 * f_ab.max_element().max(1.0);
-            assert!((f_ab - f_ba).abs().max_element() <= tol, "{name}: {f_ab} vs {f_ba}");
+            assert!(
+                (f_ab - f_ba).abs().max_element() <= tol,
+                "{name}: {f_ab} vs {f_ba}"
+            );
         }
     }
 }
@@ -219,8 +232,8 @@ fn dielectric_splits_energy_by_fresnel_and_is_reversible() {
                 } else {
                     // Reversibility: refracting the refracted ray back returns wo, with the same
                     // Fresnel transmittance from the other side.
-                    let back = crate::math::refract(s.wi, Vec3::Z * s.wi.z.signum(), 1.0 / eta)
-                        .unwrap();
+                    let back =
+                        crate::math::refract(s.wi, Vec3::Z * s.wi.z.signum(), 1.0 / eta).unwrap();
                     assert!((back - wo).length() < 1e-3, "{wo} {back}");
                     let fr_back = fresnel_dielectric(s.wi.z, 1.5) as f64;
                     assert!((fr_back - fr).abs() < 1e-3);
@@ -228,7 +241,10 @@ fn dielectric_splits_energy_by_fresnel_and_is_reversible() {
             }
             let p = reflections as f64 / n as f64;
             let sd = (fr * (1.0 - fr) / n as f64).sqrt();
-            assert!((p - fr).abs() <= 5.0 * sd + 1e-9, "θ={th} side={side}: {p} vs {fr}");
+            assert!(
+                (p - fr).abs() <= 5.0 * sd + 1e-9,
+                "θ={th} side={side}: {p} vs {fr}"
+            );
             assert!((energy / n as f64 - 1.0).abs() < 1e-4);
         }
     }

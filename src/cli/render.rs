@@ -2,7 +2,9 @@
 
 use super::{parse_resolution, with_threads};
 use aleph::integrator::Strategy;
-use aleph::output::{AtomicOutputs, auto_exposure_ev, ChannelData, encode_srgb8, expose, write_exr, write_png};
+use aleph::output::{
+    AtomicOutputs, ChannelData, auto_exposure_ev, encode_srgb8, expose, write_exr, write_png,
+};
 use aleph::render::render_uniform;
 use aleph::scene::{Scene, SceneDescription};
 use anyhow::Context;
@@ -52,7 +54,10 @@ pub struct RenderArgs {
 /// Output stem: explicit, or the scene's name (its directory's name for `scene.toml`).
 fn output_stem(args: &RenderArgs, scene: &Path) -> PathBuf {
     if let Some(o) = &args.output {
-        let ext = o.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let ext = o
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
         return match ext.as_deref() {
             Some("exr") | Some("png") => o.with_extension(""),
             _ => o.clone(),
@@ -101,16 +106,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     with_threads(threads, move || render_and_write(desc, &stem, exposure))?
 }
 
-fn render_and_write(desc: SceneDescription, stem: &Path, exposure: Option<f32>) -> anyhow::Result<ExitCode> {
+fn render_and_write(
+    desc: SceneDescription,
+    stem: &Path,
+    exposure: Option<f32>,
+) -> anyhow::Result<ExitCode> {
     let scene = Scene::load_description(desc)?;
     let (w, h) = (scene.camera.width, scene.camera.height);
     let spp = scene.settings.spp;
     let total = w as u64 * h as u64 * spp as u64;
     let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
     bar.set_style(
-        ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent:>3}% {elapsed}<{eta} {per_sec}")
-            .unwrap()
-            .progress_chars("=> "),
+        ProgressStyle::with_template(
+            "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed}<{eta} {per_sec}",
+        )
+        .unwrap()
+        .progress_chars("=> "),
     );
     let (film, stats) = render_uniform(&scene, Strategy::Mis, spp, &|n| bar.inc(n));
     bar.finish_and_clear();
@@ -120,7 +131,10 @@ fn render_and_write(desc: SceneDescription, stem: &Path, exposure: Option<f32>) 
     let png_path = with_ext(stem, "png");
     let mut out = AtomicOutputs::new();
     let attributes = vec![
-        ("radianceUnits".to_string(), "W.sr^-1.m^-2 (linear Rec.709 RGB)".to_string()),
+        (
+            "radianceUnits".to_string(),
+            "W.sr^-1.m^-2 (linear Rec.709 RGB)".to_string(),
+        ),
         ("sppUnits".to_string(), "samples per pixel".to_string()),
         ("scene".to_string(), scene.path.display().to_string()),
     ];

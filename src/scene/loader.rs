@@ -237,7 +237,8 @@ impl SceneDescription {
                 )));
             };
             let m = &mut b.materials[idx as usize];
-            apply_override(m, ov).map_err(|msg| self.invalid(format!("[materials.{name}]: {msg}")))?;
+            apply_override(m, ov)
+                .map_err(|msg| self.invalid(format!("[materials.{name}]: {msg}")))?;
         }
         for (i, l) in self.lights.iter().enumerate() {
             match l {
@@ -249,10 +250,14 @@ impl SceneDescription {
                 } => {
                     let vals = corner.iter().chain(edge1).chain(edge2).chain(radiance);
                     if vals.clone().any(|v| !v.is_finite()) {
-                        return Err(self.invalid(format!("[[light]] #{}: values must be finite", i + 1)));
+                        return Err(
+                            self.invalid(format!("[[light]] #{}: values must be finite", i + 1))
+                        );
                     }
                     if radiance.iter().any(|&v| v < 0.0) {
-                        return Err(self.invalid(format!("[[light]] #{}: radiance must be ≥ 0", i + 1)));
+                        return Err(
+                            self.invalid(format!("[[light]] #{}: radiance must be ≥ 0", i + 1))
+                        );
                     }
                     let (c, e1, e2) = (Vec3::from(*corner), Vec3::from(*edge1), Vec3::from(*edge2));
                     if e1.cross(e2).length() <= 0.0 {
@@ -334,7 +339,9 @@ impl SceneDescription {
     }
 
     fn transform(&self, mesh: usize, t: Option<&TransformDesc>) -> SceneResult<Mat4> {
-        let Some(t) = t else { return Ok(Mat4::IDENTITY) };
+        let Some(t) = t else {
+            return Ok(Mat4::IDENTITY);
+        };
         let key = format!("[[mesh]] #{} transform", mesh + 1);
         let m = if let Some(rows) = t.matrix {
             if t.scale.is_some() || t.rotate_deg.is_some() || t.translate.is_some() {
@@ -528,16 +535,26 @@ impl Builder {
         }))
     }
 
-    fn convert_material(&mut self, m: &tobj::Material, dir: &Path, mtl: &Path) -> SceneResult<Material> {
+    fn convert_material(
+        &mut self,
+        m: &tobj::Material,
+        dir: &Path,
+        mtl: &Path,
+    ) -> SceneResult<Material> {
         let rgb = |v: Option<[f32; 3]>| v.map(Vec3::from).unwrap_or(Vec3::ZERO);
         let kd_c = rgb(m.diffuse);
         let ks_c = rgb(m.specular);
         let ke_c = rgb(m.emissive);
-        let bad = [kd_c, ks_c, ke_c].iter().any(|v| !v.is_finite() || v.min_element() < 0.0);
+        let bad = [kd_c, ks_c, ke_c]
+            .iter()
+            .any(|v| !v.is_finite() || v.min_element() < 0.0);
         if bad {
             return Err(SceneError::Mtl {
                 path: mtl.to_path_buf(),
-                message: format!("material {:?}: Kd, Ks and Ke must be finite and ≥ 0", m.name),
+                message: format!(
+                    "material {:?}: Kd, Ks and Ke must be finite and ≥ 0",
+                    m.name
+                ),
             });
         }
         let kd = match &m.diffuse_texture {
@@ -553,7 +570,11 @@ impl Builder {
             Some(t) => match self.texture(dir, t)? {
                 Some(ColorSource::Texture { id, base, gain }) => {
                     // Ke multiplies the texture; fold a grey Ke into the gain.
-                    let k = if ke_c.max_element() > 0.0 { ke_c.max_element() } else { 1.0 };
+                    let k = if ke_c.max_element() > 0.0 {
+                        ke_c.max_element()
+                    } else {
+                        1.0
+                    };
                     Some(ColorSource::Texture {
                         id,
                         base: base * k,
@@ -575,7 +596,10 @@ impl Builder {
         let ns = m.shininess.unwrap_or(0.0);
         let has_ks = ks_c.max_element() > 0.0 || m.specular_texture.is_some();
         let kind = if matches!(illum, 4 | 6 | 7 | 9) || dissolve < 1.0 || tr > 0.0 {
-            let ior = m.optical_density.filter(|n| *n > 0.0 && n.is_finite()).unwrap_or(1.5);
+            let ior = m
+                .optical_density
+                .filter(|n| *n > 0.0 && n.is_finite())
+                .unwrap_or(1.5);
             MaterialKind::Dielectric { ior }
         } else if matches!(illum, 5 | 8) || (has_ks && ns >= 10_000.0) {
             MaterialKind::Mirror
@@ -595,7 +619,10 @@ impl Builder {
             .unknown_param
             .get("Tf")
             .map(|s| {
-                let v: Vec<f32> = s.split_whitespace().filter_map(|t| t.parse().ok()).collect();
+                let v: Vec<f32> = s
+                    .split_whitespace()
+                    .filter_map(|t| t.parse().ok())
+                    .collect();
                 match v.len() {
                     1 => Vec3::splat(v[0]),
                     n if n >= 3 => Vec3::new(v[0], v[1], v[2]),
@@ -650,7 +677,11 @@ impl Builder {
         if let Some((p, message)) = mtl_failure.into_inner() {
             return Err(SceneError::Mtl { path: p, message });
         }
-        let mtl_path = mtl_paths.into_inner().first().cloned().unwrap_or_else(|| path.to_path_buf());
+        let mtl_path = mtl_paths
+            .into_inner()
+            .first()
+            .cloned()
+            .unwrap_or_else(|| path.to_path_buf());
         let mtl_dir = mtl_path.parent().unwrap_or(Path::new("")).to_path_buf();
         let materials = materials.unwrap_or_default();
         let mut local_to_global = Vec::with_capacity(materials.len());
@@ -677,7 +708,8 @@ impl Builder {
                 ))
             };
             let has_n = mesh.normals.len() == mesh.positions.len() && !mesh.normals.is_empty();
-            let has_uv = mesh.texcoords.len() / 2 == mesh.positions.len() / 3 && !mesh.texcoords.is_empty();
+            let has_uv =
+                mesh.texcoords.len() / 2 == mesh.positions.len() / 3 && !mesh.texcoords.is_empty();
             for (f, idx) in mesh.indices.chunks_exact(3).enumerate() {
                 let p = [pos(idx[0]), pos(idx[1]), pos(idx[2])];
                 if p.iter().any(|v| !v.is_finite()) {
@@ -690,8 +722,9 @@ impl Builder {
                 let n = if has_n {
                     let nn = |i: u32| {
                         let i = i as usize * 3;
-                        (normal_xf * Vec3::new(mesh.normals[i], mesh.normals[i + 1], mesh.normals[i + 2]))
-                            .normalize_or_zero()
+                        (normal_xf
+                            * Vec3::new(mesh.normals[i], mesh.normals[i + 1], mesh.normals[i + 2]))
+                        .normalize_or_zero()
                     };
                     let n = [nn(idx[0]), nn(idx[1]), nn(idx[2])];
                     if n.iter().all(|v| v.is_finite() && *v != Vec3::ZERO) {
@@ -776,7 +809,14 @@ mod tests {
     #[test]
     fn texture_spec_options() {
         let s = parse_texture_spec("-mm 0 0.4 screen.png").unwrap();
-        assert_eq!(s, TextureSpec { file: "screen.png".into(), base: 0.0, gain: 0.4 });
+        assert_eq!(
+            s,
+            TextureSpec {
+                file: "screen.png".into(),
+                base: 0.0,
+                gain: 0.4
+            }
+        );
         let s = parse_texture_spec("-s 1 1 1 -bm 0.5 my tex.png").unwrap();
         assert_eq!(s.file, "my tex.png");
         assert_eq!(parse_texture_spec("wall.png").unwrap().file, "wall.png");
@@ -792,12 +832,17 @@ mod tests {
 
     #[test]
     fn unknown_keys_are_errors() {
-        let text = "[camera]\nposition=[0,0,0]\nlook_at=[0,0,-1]\nvfov_deg=40\nresolution=[4,4]\nfoo=1\n";
-        let e = SceneDescription::parse(text, Path::new("x.toml")).unwrap_err().to_string();
+        let text =
+            "[camera]\nposition=[0,0,0]\nlook_at=[0,0,-1]\nvfov_deg=40\nresolution=[4,4]\nfoo=1\n";
+        let e = SceneDescription::parse(text, Path::new("x.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("x.toml") && e.contains("foo"), "{e}");
         let text = "[camera]\nposition=[0,0,0]\nlook_at=[0,0,-1]\nvfov_deg=40\nresolution=[4,4]\n\
                     [[light]]\ntype=\"quad\"\ncorner=[0,0,0]\nedge1=[1,0,0]\nedge2=[0,1,0]\nradiance=[1,1,1]\nbogus=2\n";
-        let e = SceneDescription::parse(text, Path::new("x.toml")).unwrap_err().to_string();
+        let e = SceneDescription::parse(text, Path::new("x.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("bogus"), "{e}");
     }
 }
