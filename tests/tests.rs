@@ -6,4 +6,5 @@ mod bad_input;
 mod determinism;
 mod furnace;
 mod reference;
+mod scenes;
 mod strategies;

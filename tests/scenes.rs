@@ -1,0 +1,58 @@
+//! The bundled scenes load, map their MTL materials as documented, and render.
+
+use crate::util::*;
+use aleph::integrator::Strategy;
+use aleph::material::{ColorSource, MaterialKind};
+use aleph::scene::{Scene, SceneDescription};
+
+fn load_small(rel: &str) -> Scene {
+    let mut desc = SceneDescription::read(&repo(rel)).unwrap();
+    desc.camera.resolution = [24, 16];
+    Scene::load_description(desc).unwrap()
+}
+
+#[test]
+fn cornell_box_materials_and_light() {
+    let s = load_small("scenes/cornell-box/scene.toml");
+    assert_eq!(s.geometry.len(), 36);
+    let light = s.materials.iter().find(|m| m.name == "light").unwrap();
+    assert!(
+        matches!(light.emission, Some(ColorSource::Constant(c)) if c.to_array() == [17.0, 12.0, 4.0])
+    );
+    let red = s.materials.iter().find(|m| m.name == "leftWall").unwrap();
+    assert_eq!(red.kind, MaterialKind::Diffuse);
+    // The light quad's two triangles are the only emitters, and they face down (−y).
+    assert_eq!(s.lights.len(), 2);
+    for &t in &s.lights.tris {
+        assert!(s.geometry.tris[t as usize].geometric_normal().y < -0.99);
+    }
+}
+
+#[test]
+fn holodeck_textures_and_emissive_screens() {
+    let s = load_small("scenes/holodeck/scene.toml");
+    assert_eq!(s.geometry.len(), 4015 + 4); // the OBJ's triangles + two quad lights
+    let wall = s
+        .materials
+        .iter()
+        .find(|m| m.name == "holodeckwirefrane")
+        .unwrap();
+    // Ks 0.2, Ns 20 with map_Kd and map_Ks: glossy, α = sqrt(2/22), both colours textured.
+    match wall.kind {
+        MaterialKind::Glossy { alpha } => assert!((alpha - (2.0f32 / 22.0).sqrt()).abs() < 1e-6),
+        k => panic!("wall is {k:?}"),
+    }
+    assert!(matches!(wall.kd, ColorSource::Texture { .. }));
+    assert!(matches!(wall.ks, ColorSource::Texture { .. }));
+    // map_Ke -mm 0 0.4 screen.png with Ke 1: emission = 0.4 × texel.
+    let screens = s.materials.iter().find(|m| m.name == "screens").unwrap();
+    match screens.emission {
+        Some(ColorSource::Texture { base, gain, .. }) => assert_eq!((base, gain), (0.0, 0.4)),
+        e => panic!("screens emission is {e:?}"),
+    }
+    assert_eq!(s.textures.len(), 3);
+    let film = render(&s, Strategy::Mis, 4);
+    let rgb = film.mean_rgb();
+    assert!(rgb.iter().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(rgb.iter().any(|&v| v > 0.0));
+}
