@@ -6,12 +6,28 @@
 //! renderer; any HDR image can be used.
 //!
 //! - [`photometry`]: luminance from linear Rec.709 RGB, calibration to cd/m², scotopic luminance.
+//! - [`viewing`]: [`ViewingConditions`](viewing::ViewingConditions), pixels per degree and frame rate.
+//! - [`tvi`]: threshold-versus-intensity (Ferwerda et al. 1996, Ward Larson et al. 1997).
+//! - [`csf`]: Daly's 1993 CSF, the Kelly–Daly spatiovelocity CSF, eye movement, masking.
+//! - [`adaptation`]: global and local adaptation luminance (FFT convolution).
+//! - [`fft`]: planned 2-D real FFTs.
 //!
 //! ```
 //! use perception::photometry::luminance;
+//! use perception::tvi::tvi_ward97;
 //! // Linear Rec.709 white has relative luminance 1.
 //! assert!((luminance(1.0, 1.0, 1.0) - 1.0).abs() < 1e-6);
+//! // At 100 cd/m² the smallest visible increment is about 5.6 cd/m² (Weber fraction 5.6 %).
+//! assert!((tvi_ward97(100.0) - 5.559).abs() < 1e-3);
 //! ```
 #![deny(missing_docs)]
 
+pub mod adaptation;
+pub mod csf;
+pub mod error;
+pub mod fft;
 pub mod photometry;
+pub mod tvi;
+pub mod viewing;
+
+pub use error::{PerceptionError, Result};
