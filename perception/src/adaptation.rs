@@ -71,17 +71,29 @@ pub struct Padding {
 impl Padding {
     /// A canvas with at least `margin` pixels on every side (never more than the image size).
     pub fn new(width: usize, height: usize, margin: usize) -> Padding {
-        let mx = margin.min(width);
-        let my = margin.min(height);
-        let pw = good_size(width + 2 * mx);
-        let ph = good_size(height + 2 * my);
+        Self::aligned(width, height, margin, 1)
+    }
+
+    /// As [`Padding::new`], with the canvas size and the image offset multiples of `align` (a
+    /// power of two), and canvas / `align` a product of 2, 3, 5 and 7, so that the canvas can
+    /// be decimated by any power of two up to `align` for FFTs.
+    pub fn aligned(width: usize, height: usize, margin: usize, align: usize) -> Padding {
+        let align = align.max(1);
+        let dim = |n: usize| -> (usize, usize) {
+            let m = margin.min(n);
+            let x0 = m.div_ceil(align) * align;
+            let total = good_size((x0 + n + m).div_ceil(align)) * align;
+            (total, x0)
+        };
+        let (pw, x0) = dim(width);
+        let (ph, y0) = dim(height);
         Padding {
             width,
             height,
             padded_width: pw,
             padded_height: ph,
-            x0: (pw - width) / 2,
-            y0: (ph - height) / 2,
+            x0,
+            y0,
         }
     }
 

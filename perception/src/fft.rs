@@ -83,18 +83,21 @@ impl Fft2d {
     pub fn forward(&self, input: &[f32]) -> Vec<Complex32> {
         assert_eq!(input.len(), self.w * self.h);
         let (w, h, wc) = (self.w, self.h, self.wc);
-        let mut rows = vec![Complex32::new(0.0, 0.0); h * wc];
-        rows.par_chunks_mut(wc)
-            .zip(input.par_chunks(w))
-            .for_each_init(
+        let rows: Vec<Complex32> = input
+            .par_chunks(w)
+            .map_init(
                 || (vec![0f32; w], self.r2c.make_scratch_vec()),
-                |(buf, scratch), (out, inp)| {
+                |(buf, scratch), inp| {
                     buf.copy_from_slice(inp);
+                    let mut out = self.r2c.make_output_vec();
                     self.r2c
-                        .process_with_scratch(buf, out, scratch)
+                        .process_with_scratch(buf, &mut out, scratch)
                         .expect("buffer sizes are planned");
+                    out
                 },
-            );
+            )
+            .flatten_iter()
+            .collect();
         let mut spec = transpose(&rows, h, wc);
         spec.par_chunks_mut(h).for_each_init(
             || vec![Complex32::new(0.0, 0.0); self.col_fwd.get_inplace_scratch_len()],
@@ -153,25 +156,25 @@ impl Fft2d {
     }
 }
 
-/// Transposes a row-major `rows × cols` matrix, in parallel over blocks of output rows.
+/// Transposes a row-major `rows × cols` matrix, in parallel over output rows, in tiles of
+/// 16 output rows so that each source cache line is used 16 times.
 fn transpose(a: &[Complex32], rows: usize, cols: usize) -> Vec<Complex32> {
-    let mut t = vec![Complex32::new(0.0, 0.0); rows * cols];
-    const B: usize = 32;
-    t.par_chunks_mut(rows * B)
-        .enumerate()
-        .for_each(|(bi, chunk)| {
-            let c0 = bi * B;
-            let nc = chunk.len() / rows;
-            for r0 in (0..rows).step_by(B) {
-                let r1 = (r0 + B).min(rows);
-                for dc in 0..nc {
-                    let c = c0 + dc;
-                    for r in r0..r1 {
-                        chunk[dc * rows + r] = a[r * cols + c];
-                    }
-                }
+    const B: usize = 16;
+    let tiles: Vec<Vec<Complex32>> = (0..cols.div_ceil(B))
+        .into_par_iter()
+        .map(|bi| {
+            let (c0, c1) = (bi * B, ((bi + 1) * B).min(cols));
+            let mut tile = Vec::with_capacity((c1 - c0) * rows);
+            for c in c0..c1 {
+                tile.extend((0..rows).map(|r| a[r * cols + c]));
             }
-        });
+            tile
+        })
+        .collect();
+    let mut t = Vec::with_capacity(rows * cols);
+    for tile in tiles {
+        t.extend_from_slice(&tile);
+    }
     t
 }
 

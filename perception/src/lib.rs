@@ -10,6 +10,7 @@
 //! - [`tvi`]: threshold-versus-intensity (Ferwerda et al. 1996, Ward Larson et al. 1997).
 //! - [`csf`]: Daly's 1993 CSF, the Kelly–Daly spatiovelocity CSF, eye movement, masking.
 //! - [`adaptation`]: global and local adaptation luminance (FFT convolution).
+//! - [`threshold`]: the threshold map ΔL_T(x) (Ramasubramanian et al. 1999, Yee et al. 2001).
 //! - [`fft`]: planned 2-D real FFTs.
 //!
 //! ```
@@ -27,6 +28,8 @@ pub mod csf;
 pub mod error;
 pub mod fft;
 pub mod photometry;
+mod table;
+pub mod threshold;
 pub mod tvi;
 pub mod viewing;
 

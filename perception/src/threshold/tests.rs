@@ -1,0 +1,148 @@
+//! Threshold-map tests. Expectations are derived in comments from the models' published numbers.
+
+use super::*;
+
+/// ppd = 32 exactly: a `w`-pixel-wide image filling the matching field of view.
+fn view32(w: usize) -> ViewingConditions {
+    let half = (w as f64 / 2.0 / 32.0 / (180.0 / std::f64::consts::PI)).atan();
+    let v = ViewingConditions::from_fov(2.0 * half.to_degrees(), w as f64).unwrap();
+    assert!((v.ppd - 32.0).abs() < 1e-9);
+    v
+}
+
+#[test]
+fn flat_field_threshold_is_the_tvi() {
+    // Nothing to mask and no frequency content: F = 1 and ΔL_T = ΔL_TVI(100) = 5.559 cd/m²
+    // (Ward 1997: 0.05559 · 100).
+    let (w, h) = (128, 96);
+    let m = threshold_map(&vec![100.0; w * h], w, h, &view32(w), None).unwrap();
+    for i in 0..w * h {
+        assert!((m.adaptation[i] - 100.0).abs() < 0.01);
+        assert!(
+            (m.elevation[i] - 1.0).abs() < 1e-3,
+            "F = {}",
+            m.elevation[i]
+        );
+        assert!((m.threshold[i] - 5.559).abs() < 0.01, "{}", m.threshold[i]);
+    }
+}
+
+#[test]
+fn dark_fields_have_smaller_absolute_but_larger_relative_thresholds() {
+    // TVI: ΔL(1) = 0.3913 (Weber fraction 39 %), ΔL(100) = 5.559 (5.6 %).
+    let (w, h) = (64, 64);
+    let v = view32(w);
+    let dark = threshold_map(&vec![1.0; w * h], w, h, &v, None).unwrap();
+    let bright = threshold_map(&vec![100.0; w * h], w, h, &v, None).unwrap();
+    let (d, b) = (dark.threshold[2000], bright.threshold[2000]);
+    assert!((d - 0.3913).abs() < 0.005 && (b - 5.559).abs() < 0.01);
+    assert!(d / 1.0 > 5.0 * (b / 100.0));
+}
+
+#[test]
+fn fine_high_contrast_checkerboard_reaches_the_cap() {
+    // A 1-pixel checkerboard of 20 and 180 cd/m² (contrast 0.8 at 16 cpd for ppd 32). Daly's
+    // CSF at 16 cpd and 100 cd/m² is ≈ 60 against a peak of ≈ 237 (E ≈ 4); the masker is
+    // 0.8 × 60 ≈ 50 threshold units, T_e(50) = 0.0153 (392.5 · 50)^0.7 ≈ 15. F = E·M ≈ 60 is
+    // clamped to 10, so ΔL_T ≈ 10 × ΔL_TVI(100) = 55.6 cd/m².
+    let (w, h) = (128, 128);
+    let img: Vec<f32> = (0..w * h)
+        .map(|i| {
+            if (i % w + i / w) % 2 == 0 {
+                20.0
+            } else {
+                180.0
+            }
+        })
+        .collect();
+    let m = threshold_map(&img, w, h, &view32(w), None).unwrap();
+    let c = (h / 2) * w + w / 2;
+    assert!((m.adaptation[c] - 100.0).abs() < 1.0);
+    assert!(
+        (m.elevation[c] - 10.0).abs() < 1e-3,
+        "F = {}",
+        m.elevation[c]
+    );
+    assert!(
+        m.masking_elevation[c] > 5.0,
+        "masking {}",
+        m.masking_elevation[c]
+    );
+    assert!((m.threshold[c] - 55.59).abs() < 1.0, "{}", m.threshold[c]);
+}
+
+fn grating(w: usize, h: usize, period_px: f32, mean: f32, contrast: f32) -> Vec<f32> {
+    (0..w * h)
+        .map(|i| {
+            let x = (i % w) as f32;
+            mean * (1.0 + contrast * (2.0 * std::f32::consts::PI * x / period_px).sin())
+        })
+        .collect()
+}
+
+#[test]
+fn velocity_raises_the_threshold_on_fine_detail() {
+    // A vertical grating of 8 px period (4 cpd at ppd 32), contrast 0.05 around 100 cd/m²:
+    // S_Daly93(4) ≈ 230 ⇒ 11 threshold units, T_e ≈ 5, E ≈ 1: F ≈ 5, below the cap.
+    // Moving at 20 deg/s (20 px/frame at 32 fps over 32 ppd) the eye tracks at 16.55 deg/s and
+    // 3.45 deg/s stays on the retina, where S_KD(4 cpd) falls to about a fifth of its drift
+    // value: E ≈ 5, masking falls to T_e(2.3) ≈ 1.8, and F rises to ≈ 7.
+    let (w, h) = (128, 64);
+    let view = view32(w).with_fps(32.0).unwrap();
+    let img = grating(w, h, 8.0, 100.0, 0.05);
+    let mapper = ThresholdMapper::new(w, h, view, ThresholdParams::default()).unwrap();
+    let still = mapper.compute(&img, None).unwrap();
+    let vel: Vec<f32> = (0..w * h).flat_map(|_| [20.0f32, 0.0]).collect();
+    let moving = mapper.compute(&img, Some(&vel)).unwrap();
+    let c = (h / 2) * w + w / 2;
+    assert!(
+        still.elevation[c] > 2.0 && still.elevation[c] < 9.0,
+        "still F = {}",
+        still.elevation[c]
+    );
+    assert!(
+        moving.threshold[c] > 1.2 * still.threshold[c],
+        "moving {} vs still {}",
+        moving.threshold[c],
+        still.threshold[c]
+    );
+    // A static velocity map gives the static answer.
+    let zero = vec![0f32; 2 * w * h];
+    let z = mapper.compute(&img, Some(&zero)).unwrap();
+    assert!((z.threshold[c] - still.threshold[c]).abs() < 1e-3 * still.threshold[c]);
+}
+
+#[test]
+fn bands_cover_nyquist_down_to_half_a_cycle_per_degree() {
+    let m = ThresholdMapper::new(512, 512, view32(512), ThresholdParams::default()).unwrap();
+    // ppd 32: 16, 8, 4, 2, 1, 0.5 cpd.
+    assert_eq!(
+        m.band_frequencies_cpd(),
+        vec![16.0, 8.0, 4.0, 2.0, 1.0, 0.5]
+    );
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let v = ViewingConditions::default();
+    assert!(ThresholdMapper::new(0, 5, v, ThresholdParams::default()).is_err());
+    let p = ThresholdParams {
+        max_elevation: 0.5,
+        ..Default::default()
+    };
+    assert!(ThresholdMapper::new(4, 4, v, p).is_err());
+    let m = ThresholdMapper::new(4, 4, v, ThresholdParams::default()).unwrap();
+    assert!(m.compute(&[1.0; 15], None).is_err());
+    let mut img = vec![1.0f32; 16];
+    img[5] = f32::NAN;
+    assert!(matches!(
+        m.compute(&img, None),
+        Err(PerceptionError::NonFinite { x: 1, y: 1, .. })
+    ));
+    img[5] = -1.0;
+    assert!(matches!(
+        m.compute(&img, None),
+        Err(PerceptionError::Negative { .. })
+    ));
+    assert!(m.compute(&[1.0; 16], Some(&[0.0; 31])).is_err());
+}
