@@ -22,6 +22,7 @@ pub mod chi2;
 pub mod error;
 pub mod film;
 pub mod geometry;
+pub mod imageio;
 pub mod integrator;
 pub mod light;
 pub mod material;

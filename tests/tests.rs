@@ -4,6 +4,7 @@ mod util;
 
 mod bad_input;
 mod determinism;
+mod diff;
 mod furnace;
 mod reference;
 mod scenes;

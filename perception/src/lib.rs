@@ -11,6 +11,7 @@
 //! - [`csf`]: Daly's 1993 CSF, the Kelly–Daly spatiovelocity CSF, eye movement, masking.
 //! - [`adaptation`]: global and local adaptation luminance (FFT convolution).
 //! - [`threshold`]: the threshold map ΔL_T(x) (Ramasubramanian et al. 1999, Yee et al. 2001).
+//! - [`metric`]: the visible-difference metric (pdiff-like, reference-only masking).
 //! - [`fft`]: planned 2-D real FFTs.
 //!
 //! ```
@@ -27,6 +28,7 @@ pub mod adaptation;
 pub mod csf;
 pub mod error;
 pub mod fft;
+pub mod metric;
 pub mod photometry;
 mod table;
 pub mod threshold;
@@ -34,3 +36,19 @@ pub mod tvi;
 pub mod viewing;
 
 pub use error::{PerceptionError, Result};
+
+#[cfg(test)]
+mod rng_for_tests {
+    /// A small deterministic generator for test images (Knuth's MMIX LCG, top bits).
+    pub struct Lcg(pub u64);
+    impl Lcg {
+        /// Uniform in [0, 1).
+        pub fn next(&mut self) -> f32 {
+            self.0 = self
+                .0
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+}

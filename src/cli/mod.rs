@@ -1,6 +1,7 @@
 //! Command-line interface: `aleph render`, … Errors print their whole cause chain on stderr and
 //! exit with status 2 (status 1 is reserved for "a visible difference was found" by `diff`).
 
+mod diff;
 mod render;
 
 use clap::{Parser, Subcommand};
@@ -18,6 +19,9 @@ pub struct Cli {
 enum Command {
     /// Render a scene to OUT.exr (linear radiance + spp layer) and OUT.png (display image).
     Render(render::RenderArgs),
+    /// Compare two images with aleph's visual model: exit 0 if no difference is visible, 1 if
+    /// one is, 2 on an error.
+    Diff(diff::DiffArgs),
 }
 
 /// Exit status for errors (bad input, I/O failures).
@@ -27,6 +31,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render::run(args),
+        Command::Diff(args) => diff::run(args),
     };
     match result {
         Ok(code) => code,

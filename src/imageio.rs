@@ -1,0 +1,190 @@
+//! Reading images for the `diff` and `tonemap` commands: OpenEXR (exr crate), Radiance `.hdr`,
+//! PNG and JPEG (image crate).
+
+use std::path::{Path, PathBuf};
+
+/// How the values of a loaded image are to be read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Encoding {
+    /// Linear scene-referred values (EXR, Radiance HDR): cd/m² = Y × luminance scale.
+    Linear,
+    /// sRGB-encoded display values in [0,1] (PNG, JPEG), already decoded to linear here;
+    /// white is shown at [`perception::photometry::SRGB_WHITE_CD_M2`].
+    DisplaySrgb,
+}
+
+/// An RGB image in linear values.
+#[derive(Clone, Debug)]
+pub struct RgbImage {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Interleaved linear RGB, row-major, row 0 at the top.
+    pub rgb: Vec<f32>,
+    /// What the values mean.
+    pub encoding: Encoding,
+    /// The EXR `whiteLuminance` attribute, cd/m² of RGB (1, 1, 1), when the file has one.
+    pub white_luminance: Option<f32>,
+    /// Negative values that were clamped to 0 on load (HDR photographs can hold a few).
+    pub clamped_negative: usize,
+}
+
+/// Errors reading an image; each names the file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ImageError {
+    /// The file is missing or unreadable.
+    #[error("{}: cannot read: {message}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
+    /// The file's format is not one aleph reads.
+    #[error("{}: unsupported image format (aleph reads .exr, .hdr, .png, .jpg/.jpeg)", path.display())]
+    Unsupported {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A pixel is NaN or infinite.
+    #[error("{}: pixel ({x}, {y}) is not finite", path.display())]
+    NonFinite {
+        /// The file.
+        path: PathBuf,
+        /// Column.
+        x: usize,
+        /// Row.
+        y: usize,
+    },
+    /// The image has no pixels.
+    #[error("{}: image is empty", path.display())]
+    Empty {
+        /// The file.
+        path: PathBuf,
+    },
+}
+
+fn extension(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default()
+}
+
+/// Reads an image. EXR and HDR are linear; PNG and JPEG are decoded from sRGB to linear display
+/// values in [0,1]. Negative values are clamped to 0 and counted; NaN or infinite values are an
+/// error.
+///
+/// # Errors
+/// [`ImageError`] naming the file.
+pub fn read_image(path: &Path) -> Result<RgbImage, ImageError> {
+    let read_err = |message: String| ImageError::Read {
+        path: path.to_path_buf(),
+        message,
+    };
+    if !path.exists() {
+        return Err(read_err("file not found".into()));
+    }
+    let ext = extension(path);
+    let mut img = match ext.as_str() {
+        "exr" => read_exr(path).map_err(read_err)?,
+        "hdr" | "png" | "jpg" | "jpeg" => {
+            let dynimg = image::ImageReader::open(path)
+                .map_err(|e| read_err(e.to_string()))?
+                .with_guessed_format()
+                .map_err(|e| read_err(e.to_string()))?
+                .decode()
+                .map_err(|e| read_err(e.to_string()))?;
+            let linear = ext == "hdr";
+            let rgb32 = dynimg.into_rgb32f();
+            let (w, h) = (rgb32.width() as usize, rgb32.height() as usize);
+            let mut rgb = rgb32.into_raw();
+            if !linear {
+                for v in rgb.iter_mut() {
+                    *v = perception::photometry::srgb_to_linear(*v);
+                }
+            }
+            RgbImage {
+                width: w,
+                height: h,
+                rgb,
+                encoding: if linear {
+                    Encoding::Linear
+                } else {
+                    Encoding::DisplaySrgb
+                },
+                white_luminance: None,
+                clamped_negative: 0,
+            }
+        }
+        _ => {
+            return Err(ImageError::Unsupported {
+                path: path.to_path_buf(),
+            });
+        }
+    };
+    if img.width == 0 || img.height == 0 {
+        return Err(ImageError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
+    for (i, v) in img.rgb.iter_mut().enumerate() {
+        if !v.is_finite() {
+            let p = i / 3;
+            return Err(ImageError::NonFinite {
+                path: path.to_path_buf(),
+                x: p % img.width,
+                y: p / img.width,
+            });
+        }
+        if *v < 0.0 {
+            *v = 0.0;
+            img.clamped_negative += 1;
+        }
+    }
+    Ok(img)
+}
+
+fn read_exr(path: &Path) -> Result<RgbImage, String> {
+    use exr::prelude::*;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |resolution, _| {
+                (
+                    resolution.width(),
+                    vec![0f32; resolution.width() * resolution.height() * 3],
+                )
+            },
+            |(w, buf): &mut (usize, Vec<f32>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let i = 3 * (pos.y() * *w + pos.x());
+                buf[i] = r;
+                buf[i + 1] = g;
+                buf[i + 2] = b;
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| e.to_string())?;
+    let layer = &image.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    Ok(RgbImage {
+        width: w,
+        height: h,
+        rgb: layer.channel_data.pixels.1.clone(),
+        encoding: self::Encoding::Linear,
+        white_luminance: layer.attributes.white_luminance.or(image
+            .attributes
+            .other
+            .get(&Text::from("whiteLuminance"))
+            .and_then(|a| match a {
+                AttributeValue::F32(v) => Some(*v),
+                _ => None,
+            })),
+        clamped_negative: 0,
+    })
+}
