@@ -19,6 +19,7 @@
 pub mod bsdf;
 pub mod camera;
 pub mod chi2;
+pub mod display;
 pub mod error;
 pub mod film;
 pub mod geometry;

@@ -9,3 +9,4 @@ mod furnace;
 mod reference;
 mod scenes;
 mod strategies;
+mod tonemap;

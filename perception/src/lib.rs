@@ -11,6 +11,8 @@
 //! - [`csf`]: Daly's 1993 CSF, the Kelly–Daly spatiovelocity CSF, eye movement, masking.
 //! - [`adaptation`]: global and local adaptation luminance (FFT convolution).
 //! - [`threshold`]: the threshold map ΔL_T(x) (Ramasubramanian et al. 1999, Yee et al. 2001).
+//! - [`tmo`]: tone reproduction (TR, FPSG, WRP, PTYG with time-dependent adaptation, Reinhard,
+//!   exposure).
 //! - [`metric`]: the visible-difference metric (pdiff-like, reference-only masking).
 //! - [`fft`]: planned 2-D real FFTs.
 //!
@@ -32,6 +34,7 @@ pub mod metric;
 pub mod photometry;
 mod table;
 pub mod threshold;
+pub mod tmo;
 pub mod tvi;
 pub mod viewing;
 

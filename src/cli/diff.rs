@@ -21,14 +21,14 @@ pub struct DiffArgs {
     /// Test image, same size.
     test: PathBuf,
     /// Horizontal field of view the image fills, degrees (pdiff's default: 45).
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     fov: Option<f64>,
     /// Pixels per degree instead of a field of view (FLIP's monitor default is 67).
     #[arg(long, value_name = "PPD", conflicts_with = "fov")]
     ppd: Option<f64>,
     /// cd/m² per unit of linear (EXR/HDR) values. Default: the EXR's whiteLuminance attribute
     /// if present, else 100 (value 1 = a 100 cd/m² display white). PNG/JPEG white is 100 cd/m².
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", allow_negative_numbers = true)]
     luminance_scale: Option<f32>,
     /// "Different" from this many visibly different pixels (pdiff's default: 100).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_FAIL_PIXELS)]

@@ -3,6 +3,7 @@
 
 mod diff;
 mod render;
+mod tonemap;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -22,6 +23,9 @@ enum Command {
     /// Compare two images with aleph's visual model: exit 0 if no difference is visible, 1 if
     /// one is, 2 on an error.
     Diff(diff::DiffArgs),
+    /// Tone map an HDR image (EXR, HDR) to PNG or display-linear EXR, or to a labelled contact
+    /// sheet of every operator.
+    Tonemap(tonemap::TonemapArgs),
 }
 
 /// Exit status for errors (bad input, I/O failures).
@@ -32,6 +36,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render::run(args),
         Command::Diff(args) => diff::run(args),
+        Command::Tonemap(args) => tonemap::run(args),
     };
     match result {
         Ok(code) => code,

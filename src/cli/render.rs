@@ -1,6 +1,8 @@
 //! `aleph render`.
 
+use super::tonemap::{OperatorArg, ToneArgs};
 use super::{parse_resolution, with_threads};
+use aleph::display::tone_map;
 use aleph::integrator::Strategy;
 use aleph::output::{
     AtomicOutputs, ChannelData, auto_exposure_ev, encode_srgb8, expose, write_exr, write_png,
@@ -45,10 +47,21 @@ pub struct RenderArgs {
     /// Maximum path depth (overrides render.max_depth).
     #[arg(long, value_name = "N")]
     max_depth: Option<u32>,
-    /// Exposure of the PNG in stops (radiance × 2^EV before sRGB encoding). Default: automatic,
-    /// mapping the log-average luminance to 0.18.
-    #[arg(long, value_name = "EV", allow_negative_numbers = true)]
+    /// Exposure of the PNG in stops (radiance × 2^EV before sRGB encoding) when no --tonemap is
+    /// given. Default: automatic, mapping the log-average luminance to 0.18.
+    #[arg(
+        long,
+        value_name = "EV",
+        allow_negative_numbers = true,
+        conflicts_with = "tonemap"
+    )]
     exposure: Option<f32>,
+    /// Tone operator for the PNG (the EXR stays linear). Luminance is radiance × the scene's
+    /// render.luminance_scale.
+    #[arg(long, value_enum, value_name = "OP")]
+    tonemap: Option<OperatorArg>,
+    #[command(flatten)]
+    tone: ToneArgs,
 }
 
 /// Output stem: explicit, or the scene's name (its directory's name for `scene.toml`).
@@ -102,15 +115,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     }
     let stem = output_stem(&args, &scene_path);
     let threads = args.threads;
-    let exposure = args.exposure;
-    with_threads(threads, move || render_and_write(desc, &stem, exposure))?
+    let look = Look {
+        exposure: args.exposure,
+        tonemap: args.tonemap,
+        tone: args.tone.clone(),
+    };
+    with_threads(threads, move || render_and_write(desc, &stem, &look))?
 }
 
-fn render_and_write(
-    desc: SceneDescription,
-    stem: &Path,
+/// How the PNG is made from the linear image.
+struct Look {
     exposure: Option<f32>,
-) -> anyhow::Result<ExitCode> {
+    tonemap: Option<OperatorArg>,
+    tone: ToneArgs,
+}
+
+fn render_and_write(desc: SceneDescription, stem: &Path, look: &Look) -> anyhow::Result<ExitCode> {
     let scene = Scene::load_description(desc)?;
     let (w, h) = (scene.camera.width, scene.camera.height);
     let spp = scene.settings.spp;
@@ -149,14 +169,28 @@ fn render_and_write(
             &attributes,
         )
     })?;
-    let ev = exposure.unwrap_or_else(|| auto_exposure_ev(&rgb));
-    let display = encode_srgb8(&expose(&rgb, ev));
+    let (display, how) = match look.tonemap {
+        Some(op) => {
+            let settings =
+                look.tone
+                    .settings(op.into(), w as usize, scene.settings.luminance_scale)?;
+            let d = tone_map(&rgb, w as usize, h as usize, &settings)?;
+            (
+                encode_srgb8(&d),
+                format!("tone operator {}", settings.operator.name()),
+            )
+        }
+        None => {
+            let ev = look.exposure.unwrap_or_else(|| auto_exposure_ev(&rgb));
+            (encode_srgb8(&expose(&rgb, ev)), format!("{ev:+.2} EV"))
+        }
+    };
     out.stage(&png_path, |wr| write_png(wr, &png_path, w, h, &display))?;
     out.commit().context("writing outputs")?;
 
     let secs = stats.wall.as_secs_f64().max(1e-9);
     println!(
-        "{}: {w}×{h}, {spp} spp, {:.2} s, {:.2} M samples/s, {:.2} M rays/s, {} non-finite samples dropped -> {}, {} ({ev:+.2} EV)",
+        "{}: {w}×{h}, {spp} spp, {:.2} s, {:.2} M samples/s, {:.2} M rays/s, {} non-finite samples dropped -> {}, {} ({how})",
         scene.path.display(),
         secs,
         stats.samples as f64 / secs / 1e6,

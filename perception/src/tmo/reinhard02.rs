@@ -1,0 +1,55 @@
+//! Reinhard, Stark, Shirley & Ferwerda 2002, "Photographic Tone Reproduction for Digital
+//! Images", SIGGRAPH: the global operator, eqs. 1–4.
+
+use super::unit;
+use crate::adaptation::log_average;
+use crate::photometry::luminance;
+use rayon::prelude::*;
+
+/// The global photographic operator: L_m = (a / L̄_w) L_w (eq. 2),
+/// L_d = L_m (1 + L_m / L_white²) / (1 + L_m) (eq. 4), colour scaled by L_d / L_w.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reinhard02 {
+    /// Key a (default 0.18, "middle grey").
+    pub key: f64,
+    /// Smallest scaled luminance mapped to white; `None` uses the image's largest L_m, as the
+    /// paper suggests.
+    pub white: Option<f64>,
+}
+
+impl Default for Reinhard02 {
+    fn default() -> Self {
+        Reinhard02 {
+            key: 0.18,
+            white: None,
+        }
+    }
+}
+
+impl Reinhard02 {
+    /// Maps linear RGB (cd/m²) to display values in [0, 1].
+    pub fn map(&self, rgb_cd_m2: &[f32]) -> Vec<f32> {
+        let lum: Vec<f32> = rgb_cd_m2
+            .chunks_exact(3)
+            .map(|p| luminance(p[0], p[1], p[2]))
+            .collect();
+        let lbar = log_average(&lum).max(1e-9) as f64;
+        let scale = self.key / lbar;
+        let lmax = lum.iter().fold(0f32, |a, &b| a.max(b)) as f64 * scale;
+        let white2 = self.white.unwrap_or(lmax).max(1e-9).powi(2);
+        rgb_cd_m2
+            .par_chunks_exact(3)
+            .zip(lum.par_iter())
+            .flat_map_iter(|(p, &lw)| {
+                let lm = lw as f64 * scale;
+                let ld = lm * (1.0 + lm / white2) / (1.0 + lm);
+                let k = if lw > 0.0 { ld / lw as f64 } else { 0.0 };
+                [
+                    unit(p[0] as f64 * k),
+                    unit(p[1] as f64 * k),
+                    unit(p[2] as f64 * k),
+                ]
+            })
+            .collect()
+    }
+}

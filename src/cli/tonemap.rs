@@ -1,0 +1,197 @@
+//! `aleph tonemap IN OUT`: tone reproduction of an HDR image.
+
+use aleph::display::{ToneMapSettings, contact_sheet, tone_map};
+use aleph::imageio::{Encoding, read_image};
+use aleph::output::{AtomicOutputs, encode_srgb8, write_exr, write_png};
+use anyhow::bail;
+use clap::{Args, ValueEnum};
+use perception::adaptation::AdaptationMode;
+use perception::photometry::SRGB_WHITE_CD_M2;
+use perception::tmo::{Display, Operator};
+use perception::viewing::ViewingConditions;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Tone operators on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum OperatorArg {
+    /// Tumblin & Rushmeier 1993 (brightness).
+    Tr,
+    /// Ferwerda et al. 1996 (threshold visibility, with rods).
+    Fpsg,
+    /// Ward Larson et al. 1997 (histogram adjustment).
+    Wrp,
+    /// Pattanaik et al. 2000 (static appearance model).
+    Ptyg,
+    /// Constant scaling (log average to 0.18).
+    Exposure,
+    /// Reinhard et al. 2002 (global).
+    Reinhard,
+}
+
+impl From<OperatorArg> for Operator {
+    fn from(o: OperatorArg) -> Operator {
+        match o {
+            OperatorArg::Tr => Operator::Tr,
+            OperatorArg::Fpsg => Operator::Fpsg,
+            OperatorArg::Wrp => Operator::Wrp,
+            OperatorArg::Ptyg => Operator::Ptyg,
+            OperatorArg::Exposure => Operator::Exposure,
+            OperatorArg::Reinhard => Operator::Reinhard,
+        }
+    }
+}
+
+/// Adaptation luminance on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum AdaptationArg {
+    /// The log average of the whole image.
+    Global,
+    /// Arithmetic mean over 1° of visual angle.
+    Local,
+    /// Geometric mean over 1°.
+    LocalGeometric,
+}
+
+impl From<AdaptationArg> for AdaptationMode {
+    fn from(a: AdaptationArg) -> AdaptationMode {
+        match a {
+            AdaptationArg::Global => AdaptationMode::Global,
+            AdaptationArg::Local => AdaptationMode::LocalArithmetic,
+            AdaptationArg::LocalGeometric => AdaptationMode::LocalGeometric,
+        }
+    }
+}
+
+/// Tone-mapping options shared by `tonemap` and `render --tonemap`.
+#[derive(Args, Debug, Clone)]
+pub struct ToneArgs {
+    /// Adaptation luminance (WRP always uses its own 1° foveal histogram).
+    #[arg(long, value_enum, default_value = "local")]
+    pub adaptation: AdaptationArg,
+    /// Maximum display luminance, cd/m² (defaults: TR/FPSG 125, WRP 100, PTYG 5 × ambient).
+    #[arg(long, value_name = "CD", allow_negative_numbers = true)]
+    pub display_max: Option<f64>,
+    /// Display adaptation luminance L_da, cd/m² (TR, FPSG, PTYG; default 25).
+    #[arg(long, value_name = "CD", allow_negative_numbers = true)]
+    pub display_ambient: Option<f64>,
+    /// Horizontal field of view the image fills, degrees, for the 1° window (default: FLIP's
+    /// monitor, 67 pixels per degree).
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub fov: Option<f64>,
+}
+
+impl ToneArgs {
+    pub fn settings(
+        &self,
+        op: Operator,
+        width: usize,
+        luminance_scale: f32,
+    ) -> anyhow::Result<ToneMapSettings> {
+        let view = match self.fov {
+            Some(f) => ViewingConditions::from_fov(f, width as f64)?,
+            None => ViewingConditions::default(),
+        };
+        let display = Display {
+            max_cd_m2: self.display_max,
+            ambient_cd_m2: self.display_ambient,
+        };
+        display.validate()?;
+        Ok(ToneMapSettings {
+            operator: op,
+            adaptation: self.adaptation.into(),
+            view,
+            display,
+            luminance_scale,
+        })
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct TonemapArgs {
+    /// HDR input (.exr or .hdr; PNG/JPEG are read as display values with white at 100 cd/m²).
+    input: PathBuf,
+    /// Output: .png (sRGB, 8-bit) or .exr (display-linear values, 0–1 of display maximum).
+    output: Option<PathBuf>,
+    /// The operator.
+    #[arg(long, value_enum, default_value = "wrp")]
+    operator: OperatorArg,
+    /// cd/m² per unit of the input (default: the EXR's whiteLuminance, else 100).
+    #[arg(long, value_name = "K", allow_negative_numbers = true)]
+    luminance_scale: Option<f32>,
+    /// Write every operator side by side, labelled, to this PNG.
+    #[arg(long, value_name = "OUT.png")]
+    contact_sheet: Option<PathBuf>,
+    #[command(flatten)]
+    tone: ToneArgs,
+}
+
+pub fn run(args: TonemapArgs) -> anyhow::Result<ExitCode> {
+    if args.output.is_none() && args.contact_sheet.is_none() {
+        bail!("nothing to write: give OUT (.png or .exr) or --contact-sheet OUT.png");
+    }
+    let img = read_image(&args.input)?;
+    let k = match img.encoding {
+        Encoding::DisplaySrgb => SRGB_WHITE_CD_M2,
+        Encoding::Linear => args
+            .luminance_scale
+            .or(img.white_luminance)
+            .unwrap_or(SRGB_WHITE_CD_M2),
+    };
+    if !(k.is_finite() && k > 0.0) {
+        bail!("--luminance-scale must be a positive number, got {k}");
+    }
+    let op: Operator = args.operator.into();
+    let settings = args.tone.settings(op, img.width, k)?;
+    let (w, h) = (img.width as u32, img.height as u32);
+    let mut out = AtomicOutputs::new();
+    if let Some(path) = &args.output {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .unwrap_or_default();
+        let display = tone_map(&img.rgb, img.width, img.height, &settings)?;
+        match ext.as_str() {
+            "png" => {
+                let bytes = encode_srgb8(&display);
+                out.stage(path, |wr| write_png(wr, path, w, h, &bytes))?;
+            }
+            "exr" => {
+                let attrs = vec![
+                    (
+                        "displayUnits".to_string(),
+                        "display-linear, fraction of display maximum luminance (no gamma)"
+                            .to_string(),
+                    ),
+                    ("toneOperator".to_string(), op.label().to_string()),
+                ];
+                out.stage(path, |wr| write_exr(wr, path, w, h, &display, &[], &attrs))?;
+            }
+            _ => bail!("{}: output must end in .png or .exr", path.display()),
+        }
+    }
+    if let Some(path) = &args.contact_sheet {
+        let (bytes, sw, sh) = contact_sheet(&img.rgb, img.width, img.height, &settings)?;
+        out.stage(path, |wr| write_png(wr, path, sw, sh, &bytes))?;
+    }
+    out.commit()?;
+    println!(
+        "{}: {}×{}, {} cd/m² per unit, operator {}{}{}",
+        args.input.display(),
+        w,
+        h,
+        k,
+        op.name(),
+        if img.clamped_negative > 0 {
+            format!(", {} negative values clamped to 0", img.clamped_negative)
+        } else {
+            String::new()
+        },
+        args.output
+            .as_ref()
+            .map(|p| format!(" -> {}", p.display()))
+            .unwrap_or_default()
+    );
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,149 @@
+//! The display pipeline shared by `aleph render` and `aleph tonemap`: calibrate linear RGB to
+//! cd/m², find adaptation luminance, apply a tone operator from `perception::tmo`, and encode.
+//! Also the contact sheet of every operator, labelled, like the seed paper's Figure 4.
+
+use perception::adaptation::{AdaptationMode, adaptation_luminance};
+use perception::photometry::luminance_image;
+use perception::tmo::{Display, Operator, apply};
+use perception::viewing::ViewingConditions;
+use plotters::prelude::*;
+use std::sync::Once;
+
+/// How an HDR image becomes a display image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToneMapSettings {
+    /// The operator.
+    pub operator: Operator,
+    /// Adaptation luminance: global log average, or a local mean over 1°. WRP always builds its
+    /// histogram from the local (foveal, 1°) map, as its paper does.
+    pub adaptation: AdaptationMode,
+    /// Viewing conditions (pixels per degree) for the 1° window.
+    pub view: ViewingConditions,
+    /// Display overrides (`None`: each operator's documented defaults).
+    pub display: Display,
+    /// cd/m² per unit of the linear input.
+    pub luminance_scale: f32,
+}
+
+impl Default for ToneMapSettings {
+    fn default() -> Self {
+        ToneMapSettings {
+            operator: Operator::Wrp,
+            adaptation: AdaptationMode::LocalArithmetic,
+            view: ViewingConditions::default(),
+            display: Display::default(),
+            luminance_scale: 100.0,
+        }
+    }
+}
+
+/// Tone maps linear RGB (interleaved, `width × height`) to display-linear RGB in [0, 1].
+///
+/// # Errors
+/// [`perception::PerceptionError`] for bad sizes, NaN/infinite/negative values, an all-black
+/// image or bad display settings.
+pub fn tone_map(
+    rgb: &[f32],
+    width: usize,
+    height: usize,
+    s: &ToneMapSettings,
+) -> perception::Result<Vec<f32>> {
+    if !(s.luminance_scale.is_finite() && s.luminance_scale > 0.0) {
+        return Err(perception::PerceptionError::Parameter {
+            name: "luminance scale (cd/m² per unit)",
+            value: s.luminance_scale as f64,
+            range: "a positive number",
+        });
+    }
+    let rgb_cd: Vec<f32> = rgb.iter().map(|&v| v * s.luminance_scale).collect();
+    let lum = luminance_image(&rgb_cd, 1.0);
+    let mode = if s.operator == Operator::Wrp {
+        AdaptationMode::LocalArithmetic
+    } else {
+        s.adaptation
+    };
+    let adapt = adaptation_luminance(&lum, width, height, &s.view, mode, 1.0)?;
+    apply(s.operator, &rgb_cd, width, height, &adapt, &s.display)
+}
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            include_bytes!("../assets/fonts/DejaVuSans.ttf"),
+        );
+    });
+}
+
+/// Box-filter downscale of interleaved RGB by an integer factor.
+fn downscale(rgb: &[f32], w: usize, h: usize, f: usize) -> (Vec<f32>, usize, usize) {
+    if f <= 1 {
+        return (rgb.to_vec(), w, h);
+    }
+    let (nw, nh) = (w / f, h / f);
+    let mut out = vec![0f32; 3 * nw * nh];
+    for y in 0..nh {
+        for x in 0..nw {
+            for c in 0..3 {
+                let mut s = 0.0;
+                for dy in 0..f {
+                    for dx in 0..f {
+                        s += rgb[3 * ((y * f + dy) * w + x * f + dx) + c];
+                    }
+                }
+                out[3 * (y * nw + x) + c] = s / (f * f) as f32;
+            }
+        }
+    }
+    (out, nw, nh)
+}
+
+/// A labelled grid of every operator's result (3 columns), each tile at most 480 pixels wide.
+/// Returns 8-bit sRGB, width and height.
+///
+/// # Errors
+/// As [`tone_map`].
+pub fn contact_sheet(
+    rgb: &[f32],
+    width: usize,
+    height: usize,
+    s: &ToneMapSettings,
+) -> perception::Result<(Vec<u8>, u32, u32)> {
+    register_font();
+    let factor = width.div_ceil(480).max(1);
+    let (small, tw, th) = downscale(rgb, width, height, factor);
+    let (tw, th) = (tw.max(1), th.max(1));
+    let label_h = 28usize;
+    let cols = 3usize;
+    let rows = Operator::ALL.len().div_ceil(cols);
+    let (sw, sh) = (cols * tw, rows * (th + label_h));
+    let mut buf = vec![0u8; 3 * sw * sh];
+    let tiles: Vec<(Operator, Vec<u8>)> = Operator::ALL
+        .iter()
+        .map(|&op| {
+            let d = tone_map(&small, tw, th, &ToneMapSettings { operator: op, ..*s })?;
+            Ok((op, crate::output::encode_srgb8(&d)))
+        })
+        .collect::<perception::Result<_>>()?;
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (sw as u32, sh as u32)).into_drawing_area();
+        root.fill(&RGBColor(24, 24, 24)).ok();
+        for (i, (op, tile)) in tiles.into_iter().enumerate() {
+            let (cx, cy) = ((i % cols) * tw, (i / cols) * (th + label_h));
+            if let Some(el) = BitMapElement::<(i32, i32)>::with_owned_buffer(
+                (cx as i32, (cy + label_h) as i32),
+                (tw as u32, th as u32),
+                tile,
+            ) {
+                root.draw(&el).ok();
+            }
+            let style = TextStyle::from(("sans-serif", 17).into_font()).color(&WHITE);
+            root.draw_text(op.label(), &style, (cx as i32 + 8, cy as i32 + 5))
+                .ok();
+        }
+        root.present().ok();
+    }
+    Ok((buf, sw as u32, sh as u32))
+}

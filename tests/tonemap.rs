@@ -1,0 +1,160 @@
+//! `aleph tonemap` on real HDR images, and `aleph render --tonemap`.
+
+use crate::util::*;
+use aleph::output::{AtomicOutputs, write_exr};
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn aleph(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn read_display_exr(path: &Path) -> Vec<f32> {
+    aleph::imageio::read_image(path).unwrap().rgb
+}
+
+#[test]
+fn every_operator_on_real_hdr_images_is_finite_in_range_and_not_flat() {
+    let d = tempdir();
+    for input in ["tests/data/Desk.exr", "tests/data/venice_sunset_1k.hdr"] {
+        let input = repo(input);
+        for op in ["tr", "fpsg", "wrp", "ptyg", "exposure", "reinhard"] {
+            let out = d.path().join(format!("{op}.exr"));
+            let o = aleph(&[
+                "tonemap",
+                input.to_str().unwrap(),
+                out.to_str().unwrap(),
+                "--operator",
+                op,
+            ]);
+            assert!(
+                o.status.success(),
+                "{op}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            let v = read_display_exr(&out);
+            assert!(
+                v.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)),
+                "{op} out of range"
+            );
+            let black = v.iter().filter(|&&x| x <= 0.0).count() as f64 / v.len() as f64;
+            let white = v.iter().filter(|&&x| x >= 1.0).count() as f64 / v.len() as f64;
+            assert!(
+                black < 0.5 && white < 0.5,
+                "{op} on {input:?}: {black} black, {white} white"
+            );
+            let mean = v.iter().map(|&x| x as f64).sum::<f64>() / v.len() as f64;
+            assert!(mean > 0.02 && mean < 0.9, "{op}: mean {mean}");
+        }
+    }
+}
+
+#[test]
+fn png_output_and_contact_sheet() {
+    let d = tempdir();
+    let png = d.path().join("desk.png");
+    let sheet = d.path().join("sheet.png");
+    let o = aleph(&[
+        "tonemap",
+        repo("tests/data/Desk.exr").to_str().unwrap(),
+        png.to_str().unwrap(),
+        "--operator",
+        "tr",
+        "--adaptation",
+        "global",
+        "--contact-sheet",
+        sheet.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("negative values clamped"), "{stdout}");
+    let img = image::open(&png).unwrap();
+    assert_eq!((img.width(), img.height()), (644, 874));
+    // 3 × 2 tiles of 322×437 (644 / 2 = 322 after halving) plus label bars.
+    let sheet = image::open(&sheet).unwrap();
+    assert_eq!(sheet.width(), 3 * 322);
+    assert_eq!(sheet.height(), 2 * (437 + 28));
+}
+
+#[test]
+fn bad_input_is_a_clear_error_with_nothing_written() {
+    let d = tempdir();
+    let out = d.path().join("out.png");
+    let check = |args: &[&str], words: &[&str]| {
+        let o = aleph(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        let e = String::from_utf8_lossy(&o.stderr);
+        for w in words {
+            assert!(e.contains(w), "{args:?}: {e}");
+        }
+        assert!(!out.exists());
+    };
+    let o = out.to_str().unwrap();
+    check(&["tonemap", "nope.exr", o], &["nope.exr", "not found"]);
+    let txt = d.path().join("a.tiff");
+    std::fs::write(&txt, "x").unwrap();
+    check(
+        &["tonemap", txt.to_str().unwrap(), o],
+        &["a.tiff", "unsupported"],
+    );
+    // All-zero and NaN images.
+    let write = |name: &str, v: f32| {
+        let p = d.path().join(name);
+        let rgb = vec![v; 3 * 16];
+        let mut w = AtomicOutputs::new();
+        w.stage(&p, |wr| write_exr(wr, &p, 4, 4, &rgb, &[], &[]))
+            .unwrap();
+        w.commit().unwrap();
+        p
+    };
+    let zero = write("zero.exr", 0.0);
+    check(&["tonemap", zero.to_str().unwrap(), o], &["not all black"]);
+    let nan = write("nan.exr", f32::NAN);
+    check(
+        &["tonemap", nan.to_str().unwrap(), o],
+        &["nan.exr", "not finite"],
+    );
+    let desk = repo("tests/data/Desk.exr");
+    check(
+        &[
+            "tonemap",
+            desk.to_str().unwrap(),
+            d.path().join("x.jpg").to_str().unwrap(),
+        ],
+        &["x.jpg", ".png or .exr"],
+    );
+    check(
+        &["tonemap", desk.to_str().unwrap(), o, "--display-max", "-5"],
+        &["display max"],
+    );
+    check(&["tonemap", desk.to_str().unwrap()], &["nothing to write"]);
+}
+
+#[test]
+fn render_applies_the_tone_operator_to_the_png_only() {
+    let d = tempdir();
+    let stem = d.path().join("cb");
+    let o = aleph(&[
+        "render",
+        "--spp",
+        "4",
+        "--resolution",
+        "32x32",
+        "--tonemap",
+        "reinhard",
+        "-o",
+        stem.to_str().unwrap(),
+        repo("scenes/cornell-box/scene.toml").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("tone operator reinhard"));
+    // The EXR is still linear radiance: its light pixels hold the emitted radiance (17, 12, 4),
+    // far above display range.
+    let exr = aleph::imageio::read_image(&d.path().join("cb.exr")).unwrap();
+    assert!(exr.rgb.iter().cloned().fold(0.0, f32::max) > 10.0);
+    let png = image::open(d.path().join("cb.png")).unwrap().to_rgb8();
+    assert_eq!(png.dimensions(), (32, 32));
+}
