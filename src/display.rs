@@ -66,6 +66,108 @@ pub fn tone_map(
     apply(s.operator, &rgb_cd, width, height, &adapt, &s.display)
 }
 
+/// A tone mapping whose image-dependent parts — the adaptation map, exposure scale, Reinhard's
+/// log average and white — are fixed from one image, so that other images (the half-buffers of
+/// the same render, later passes) are mapped by exactly the same curve. The adaptive sampler
+/// uses it to measure noise in display luminance.
+#[derive(Clone, Debug)]
+pub struct FrozenToneMap {
+    settings: ToneMapSettings,
+    width: usize,
+    height: usize,
+    adaptation: Vec<f32>,
+    exposure_scale: f64,
+    reinhard: (f64, f64),
+}
+
+impl FrozenToneMap {
+    /// Freezes the curve that `settings` gives for `rgb` (linear, `width × height`).
+    ///
+    /// # Errors
+    /// As [`tone_map`].
+    pub fn new(rgb: &[f32], width: usize, height: usize, s: &ToneMapSettings) -> perception::Result<Self> {
+        let rgb_cd: Vec<f32> = rgb.iter().map(|&v| v * s.luminance_scale).collect();
+        let lum = luminance_image(&rgb_cd, 1.0);
+        let mode = if s.operator == Operator::Wrp {
+            AdaptationMode::LocalArithmetic
+        } else {
+            s.adaptation
+        };
+        let adaptation = adaptation_luminance(&lum, width, height, &s.view, mode, 1.0)?;
+        let exposure = perception::tmo::exposure::Exposure::default();
+        let exposure_scale = exposure.key / perception::adaptation::log_average(&lum).max(1e-9) as f64;
+        let reinhard = perception::tmo::reinhard02::Reinhard02::default().parameters(&rgb_cd);
+        Ok(FrozenToneMap {
+            settings: *s,
+            width,
+            height,
+            adaptation,
+            exposure_scale,
+            reinhard,
+        })
+    }
+
+    /// Display luminance in cd/m² of the display's white (value 1): the operator's L_dmax
+    /// (TR/FPSG 125, WRP 100, PTYG its white 125; exposure and Reinhard 100, an sRGB display).
+    pub fn display_max_cd_m2(&self) -> f64 {
+        let d = &self.settings.display;
+        match self.settings.operator {
+            Operator::Tr | Operator::Fpsg => d.max_cd_m2.unwrap_or(125.0),
+            Operator::Wrp => d.max_cd_m2.unwrap_or(100.0),
+            Operator::Ptyg => d
+                .max_cd_m2
+                .unwrap_or(d.ambient_cd_m2.unwrap_or(25.0) * perception::tmo::pattanaik00::WHITE_FACTOR),
+            Operator::Exposure | Operator::Reinhard => {
+                d.max_cd_m2.unwrap_or(perception::photometry::SRGB_WHITE_CD_M2 as f64)
+            }
+        }
+    }
+
+    /// Maps linear RGB of the frozen size to display-linear RGB in [0, 1] with the frozen curve.
+    ///
+    /// # Errors
+    /// As [`tone_map`] (an all-black image is not an error here).
+    pub fn map(&self, rgb: &[f32]) -> perception::Result<Vec<f32>> {
+        use perception::tmo::*;
+        let s = &self.settings;
+        let rgb_cd: Vec<f32> = rgb.iter().map(|&v| (v * s.luminance_scale).max(0.0)).collect();
+        let (w, h) = (self.width, self.height);
+        perception::PerceptionError::check_rgb(&rgb_cd, w, h)?;
+        let display = &s.display;
+        display.validate()?;
+        Ok(match s.operator {
+            Operator::Exposure => exposure::Exposure {
+                scale: Some(self.exposure_scale),
+                key: 0.18,
+            }
+            .map(&rgb_cd),
+            Operator::Reinhard => reinhard02::Reinhard02 {
+                key: 0.18,
+                white: Some(self.reinhard.1),
+                log_average: Some(self.reinhard.0),
+            }
+            .map(&rgb_cd),
+            op => {
+                // These operators depend on the image only through the adaptation map.
+                let mut out = apply(op, &rgb_cd, w, h, &self.adaptation, display);
+                if matches!(&out, Err(perception::PerceptionError::Parameter { name: "image luminance", .. })) {
+                    out = Ok(vec![0.0; rgb.len()]);
+                }
+                out?
+            }
+        })
+    }
+
+    /// Display luminance (cd/m²) per pixel of linear RGB under the frozen curve.
+    ///
+    /// # Errors
+    /// As [`FrozenToneMap::map`].
+    pub fn display_luminance(&self, rgb: &[f32]) -> perception::Result<Vec<f32>> {
+        let k = self.display_max_cd_m2() as f32;
+        Ok(luminance_image(&self.map(rgb)?, k))
+    }
+}
+
 fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {

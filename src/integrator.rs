@@ -51,6 +51,54 @@ pub struct PathResult {
     pub rays: u32,
 }
 
+/// Largest emitted luminance reported by [`albedo`] (emitters are much brighter than any
+/// reflectance; capping keeps their edges strong but finite in the guide).
+pub const ALBEDO_EMITTER_CAP: f32 = 10.0;
+
+/// The first-hit albedo along `ray`, the noise-free guide of the adaptive sampler (as denoisers'
+/// albedo AOVs): the diffuse (Kd) plus specular (Ks) reflectance of the first non-delta surface,
+/// following up to 8 ideal-specular bounces and weighting by their reflectance; an emitter
+/// reports its radiance scaled so its luminance is at most [`ALBEDO_EMITTER_CAP`]; a miss is
+/// black. Uses `rng` only for the choice at dielectrics (reflect or refract by Fresnel).
+pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> Vec3 {
+    use crate::bsdf::Bsdf;
+    let mut weight = Vec3::ONE;
+    for _ in 0..8 {
+        let Some(hit) = scene.geometry.intersect(&ray) else {
+            return Vec3::ZERO;
+        };
+        let tri = &scene.geometry.tris[hit.tri as usize];
+        let material = &scene.materials[tri.material as usize];
+        if tri.light != u32::MAX && -ray.d.dot(hit.ng) > 0.0 {
+            let le = material.emitted(hit.uv, &scene.textures);
+            let y = crate::math::luminance(le);
+            let k = if y > ALBEDO_EMITTER_CAP { ALBEDO_EMITTER_CAP / y } else { 1.0 };
+            return weight * le * k;
+        }
+        let bsdf = material.bsdf(hit.uv, &scene.textures);
+        match bsdf {
+            Bsdf::Lambert(l) => return weight * l.reflectance,
+            Bsdf::Glossy(g) => return weight * (g.kd + g.ks),
+            Bsdf::Mirror(_) | Bsdf::Dielectric(_) => {
+                let ns = if !bsdf.is_transmissive() && ray.d.dot(hit.ng) > 0.0 { -hit.ns } else { hit.ns };
+                let frame = Frame::from_normal(ns);
+                let wo = frame.to_local(-ray.d);
+                let Some(s) = bsdf.sample(wo, rng.uniform(), rng.uniform2()) else {
+                    return Vec3::ZERO;
+                };
+                weight *= s.f * s.wi.z.abs() / s.pdf;
+                let wi = frame.from_local(s.wi);
+                ray = Ray {
+                    o: offset_origin(hit.p, hit.ng, wi),
+                    d: wi,
+                    t_max: f32::INFINITY,
+                };
+            }
+        }
+    }
+    Vec3::ZERO
+}
+
 impl Integrator {
     /// Estimates the radiance arriving along `ray`.
     pub fn radiance(&self, scene: &Scene, mut ray: Ray, rng: &mut Rng) -> PathResult {

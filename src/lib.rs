@@ -16,6 +16,7 @@
 //! # let _ = rgb;
 //! ```
 
+pub mod adaptive;
 pub mod bsdf;
 pub mod camera;
 pub mod chi2;

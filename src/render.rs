@@ -75,6 +75,19 @@ pub fn render_counts(
     counts: &[u32],
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderStats {
+    render_counts_seeded(scene, integrator, film, counts, scene.settings.seed, progress)
+}
+
+/// As [`render_counts`] with an explicit seed (auxiliary renders such as the adaptive sampler's
+/// guide use a seed of their own so that their samples are independent of the image's).
+pub fn render_counts_seeded(
+    scene: &Scene,
+    integrator: &Integrator,
+    film: &mut Film,
+    counts: &[u32],
+    seed: u64,
+    progress: &(dyn Fn(u64) + Sync),
+) -> RenderStats {
     assert_eq!(counts.len(), film.len());
     assert_eq!(
         (film.width, film.height),
@@ -84,7 +97,6 @@ pub fn render_counts(
     let rays = AtomicU64::new(0);
     let nonfinite = AtomicU64::new(0);
     let w = film.width as usize;
-    let seed = scene.settings.seed;
     film.pixels
         .par_chunks_mut(w)
         .zip(counts.par_chunks(w))
@@ -109,8 +121,7 @@ pub fn render_counts(
     }
 }
 
-/// Renders `spp` samples in every pixel into a new film, in passes of increasing size so that
-/// progress can be reported; the image is the same as one pass of `spp` samples.
+/// Renders `spp` samples in every pixel into a new film (one pass, progress reported per row).
 pub fn render_uniform(
     scene: &Scene,
     strategy: Strategy,
@@ -125,4 +136,27 @@ pub fn render_uniform(
     let counts = vec![spp; film.len()];
     let stats = render_counts(scene, &integrator, &mut film, &counts, progress);
     (film, stats)
+}
+
+/// Renders the first-hit albedo guide ([`crate::integrator::albedo`]) with `spp` jittered
+/// samples per pixel under `seed`; returns interleaved RGB, deterministic for any thread count.
+pub fn render_albedo(scene: &Scene, spp: u32, seed: u64) -> Vec<f32> {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let mut out = vec![0f32; 3 * w * h];
+    out.par_chunks_mut(3 * w).enumerate().for_each(|(y, row)| {
+        for x in 0..w {
+            let mut acc = glam::Vec3::ZERO;
+            for k in 0..spp {
+                let mut rng = Rng::for_sample(seed, (y * w + x) as u64, k as u64);
+                let ray = scene.camera.generate_ray(x as u32, y as u32, rng.uniform2());
+                let a = crate::integrator::albedo(scene, ray, &mut rng);
+                if a.is_finite() {
+                    acc += a;
+                }
+            }
+            let a = acc / spp.max(1) as f32;
+            row[3 * x..3 * x + 3].copy_from_slice(&a.to_array());
+        }
+    });
+    out
 }

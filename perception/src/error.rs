@@ -125,3 +125,13 @@ pub(crate) fn check_image(
     }
     Ok(())
 }
+
+impl PerceptionError {
+    /// Checks an interleaved RGB image: size, length, finite and non-negative values.
+    ///
+    /// # Errors
+    /// The corresponding [`PerceptionError`].
+    pub fn check_rgb(rgb: &[f32], width: usize, height: usize) -> Result<()> {
+        check_image("RGB", rgb, width, height, 3, true)
+    }
+}

@@ -58,6 +58,10 @@ use crate::viewing::ViewingConditions;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex32;
 
+/// Per-pixel sums accumulated over bands: w, wE, wM, wEM (content-weighted elevations) and
+/// Σ φ² S² / M² (the noise detectability).
+const NSUM: usize = 5;
+
 /// Floor of the low-pass luminance in band contrasts, cd/m².
 const CONTRAST_FLOOR_CD_M2: f32 = 1e-4;
 
@@ -108,6 +112,18 @@ pub struct ThresholdMap {
     pub frequency_elevation: Vec<f32>,
     /// The masking part alone: (1 + Σ w M) / (1 + Σ w), for inspection.
     pub masking_elevation: Vec<f32>,
+    /// Threshold **RMS contrast of per-pixel white noise** (the error of a Monte Carlo
+    /// estimate), dimensionless: C_noise = 1 / sqrt(Σ_k φ_k² S_k² / M_k²), where φ_k² is the
+    /// share of white-noise power in band k, S_k the band's sensitivity (Daly 1993 at L_a, with
+    /// the velocity factor) and M_k the masking by the content *in that band*; noise of RMS
+    /// amplitude C_noise · L_a is at detection threshold (quadratic summation of the bands'
+    /// detectabilities). Content in other bands does not mask it, so a coarse edge does not hide
+    /// fine grain. Unlike `threshold`, this is not anchored to the TVI: the TVI's test stimulus
+    /// (a spot) has none of the spectrum of pixel noise, and scaling it by the noise's CSF
+    /// attenuation would mix two thresholds; the CSF gives the noise threshold directly, and its
+    /// luminance dependence (Daly's A_l, B_l) supplies the Weber and de Vries–Rose behaviour.
+    /// Capped at `max_elevation` / S_max(L_a).
+    pub noise_contrast: Vec<f32>,
 }
 
 /// One FFT resolution: the padded canvas decimated by `d`.
@@ -133,6 +149,24 @@ struct Band {
     sensitivity: LogTable,
     /// S_KD(ρ_k, v_R)/S_KD(ρ_k, drift) by v_R.
     velocity_ratio: LogTable,
+    /// φ_k²: the fraction of the power of per-pixel white noise that falls in this band.
+    noise_share: f32,
+}
+
+/// Fraction of the power of white noise on the pixel grid passing the window of band `k`:
+/// the mean of H_k(f)² over the square [−½, ½]² of frequencies (cycles/pixel).
+fn noise_share(k: usize) -> f64 {
+    const N: usize = 512;
+    let f_k = 1.0 / 2f64.powi(k as i32 + 1);
+    let mut acc = 0.0;
+    for i in 0..N {
+        for j in 0..N {
+            let fx = (i as f64 + 0.5) / N as f64 - 0.5;
+            let fy = (j as f64 + 0.5) / N as f64 - 0.5;
+            acc += band_window(k, f_k, (fx * fx + fy * fy).sqrt()).powi(2);
+        }
+    }
+    acc / (N * N) as f64
 }
 
 /// Computes threshold maps for images of one size under one set of viewing conditions, with
@@ -291,6 +325,7 @@ impl ThresholdMapper {
                 lowpass,
                 sensitivity,
                 velocity_ratio,
+                noise_share: noise_share(kb) as f32,
             });
         }
         let peak = LogTable::new(1e-5, 1e7, 12 * 24, |l| daly93_peak(l, &csf).1);
@@ -414,11 +449,11 @@ impl ThresholdMapper {
         // grids, accumulated coarse to fine.
         let lv2 = &self.levels[1];
         let (w2, h2) = (lv2.fft.width(), lv2.fft.height());
-        let mut acc: Option<(usize, Vec<[f32; 4]>)> = None;
-        let eval = |band: &Band, level: usize, amp: &[f32], lp: &[f32]| -> Vec<[f32; 4]> {
+        let mut acc: Option<(usize, Vec<[f32; NSUM]>)> = None;
+        let eval = |band: &Band, level: usize, amp: &[f32], lp: &[f32]| -> Vec<[f32; NSUM]> {
             let lv = &self.levels[level];
             let (lw, d) = (lv.fft.width(), lv.d as f32);
-            let mut sums = vec![[0f32; 4]; amp.len()];
+            let mut sums = vec![[0f32; NSUM]; amp.len()];
             sums.par_chunks_mut(lw).enumerate().for_each(|(y, row)| {
                 let yf = (y as f32 + 0.5) * d;
                 for (x, o) in row.iter_mut().enumerate() {
@@ -451,7 +486,7 @@ impl ThresholdMapper {
                 debug_assert_eq!(level, 1);
                 sums
             }
-            None => vec![[0f32; 4]; w2 * h2],
+            None => vec![[0f32; NSUM]; w2 * h2],
         };
         let (pw, ph) = (pad.padded_width, pad.padded_height);
         let mut lowpass = canvas;
@@ -465,7 +500,7 @@ impl ThresholdMapper {
             let lp = decimate2(&lowpass, pw, ph);
             let sums = eval(band, 1, &amp, &lp);
             acc2.par_iter_mut().zip(sums.par_iter()).for_each(|(a, s)| {
-                for k in 0..4 {
+                for k in 0..NSUM {
                     a[k] += s[k];
                 }
             });
@@ -473,7 +508,7 @@ impl ThresholdMapper {
 
         // Per image pixel: adaptation, and the bands' sums interpolated from the d = 2 grid.
         let mut adaptation = vec![0f32; n];
-        let mut sum = vec![[0f32; 4]; n];
+        let mut sum = vec![[0f32; NSUM]; n];
         adaptation
             .par_chunks_mut(w)
             .zip(sum.par_chunks_mut(w))
@@ -483,7 +518,7 @@ impl ThresholdMapper {
                 for x in 0..w {
                     let xf = (pad.x0 + x) as f32 + 0.5;
                     ra[x] = adapt_at(xf, yf);
-                    rs[x] = bilinear4(&acc2, w2, h2, xf / 2.0 - 0.5, yf / 2.0 - 0.5);
+                    rs[x] = bilinear_n(&acc2, w2, h2, xf / 2.0 - 0.5, yf / 2.0 - 0.5);
                 }
             });
 
@@ -496,6 +531,14 @@ impl ThresholdMapper {
         let elevation = ratio(3);
         let frequency_elevation = ratio(1);
         let masking_elevation = ratio(2);
+        let noise_contrast: Vec<f32> = sum
+            .par_iter()
+            .zip(adaptation.par_iter())
+            .map(|(sm, &la)| {
+                let cap = fmax / self.peak.get(la).max(1e-6);
+                (1.0 / (sm[4] + 1e-12).sqrt()).min(cap)
+            })
+            .collect();
         let threshold = adaptation
             .par_iter()
             .zip(elevation.par_iter())
@@ -509,6 +552,7 @@ impl ThresholdMapper {
             elevation,
             frequency_elevation,
             masking_elevation,
+            noise_contrast,
         })
     }
 
@@ -524,7 +568,7 @@ impl ThresholdMapper {
         la_log2: f32,
         s_max: f32,
         v_r: Option<f32>,
-    ) -> [f32; 4] {
+    ) -> [f32; NSUM] {
         let c = amp / lowpass.max(CONTRAST_FLOOR_CD_M2);
         let mut s = band.sensitivity.get_log2(la_log2);
         if let Some(v) = v_r {
@@ -543,7 +587,8 @@ impl ThresholdMapper {
         } else {
             1.0
         };
-        [wgt, wgt * e, wgt * m, wgt * e * m]
+        let sm = s / m;
+        [wgt, wgt * e, wgt * m, wgt * e * m, band.noise_share * sm * sm]
     }
 
     /// Bilinear sample of a level canvas (decimation `d`) at full-canvas coordinates (pixel
@@ -577,7 +622,7 @@ fn bilinear(img: &[f32], w: usize, h: usize, x: f32, y: f32) -> f32 {
 
 /// Bilinear interpolation of four interleaved channels.
 #[inline(always)]
-fn bilinear4(img: &[[f32; 4]], w: usize, h: usize, x: f32, y: f32) -> [f32; 4] {
+fn bilinear_n(img: &[[f32; NSUM]], w: usize, h: usize, x: f32, y: f32) -> [f32; NSUM] {
     let x = x.clamp(0.0, (w - 1) as f32);
     let y = y.clamp(0.0, (h - 1) as f32);
     let (x0, y0) = (x as usize, y as usize);
@@ -589,8 +634,8 @@ fn bilinear4(img: &[[f32; 4]], w: usize, h: usize, x: f32, y: f32) -> [f32; 4] {
         img[y1 * w + x0],
         img[y1 * w + x1],
     );
-    let mut out = [0f32; 4];
-    for k in 0..4 {
+    let mut out = [0f32; NSUM];
+    for k in 0..NSUM {
         let top = a[k] + fx * (b[k] - a[k]);
         let bot = c[k] + fx * (d[k] - c[k]);
         out[k] = top + fy * (bot - top);
@@ -599,12 +644,12 @@ fn bilinear4(img: &[[f32; 4]], w: usize, h: usize, x: f32, y: f32) -> [f32; 4] {
 }
 
 /// Adds the 2× bilinear upsampling of `src` (`sw × sh`) to `dst` (width `dw` = 2 sw).
-fn upsample2_add(src: &[[f32; 4]], sw: usize, sh: usize, dst: &mut [[f32; 4]], dw: usize) {
+fn upsample2_add(src: &[[f32; NSUM]], sw: usize, sh: usize, dst: &mut [[f32; NSUM]], dw: usize) {
     dst.par_chunks_mut(dw).enumerate().for_each(|(y, row)| {
         let sy = y as f32 / 2.0 - 0.25;
         for (x, o) in row.iter_mut().enumerate() {
-            let v = bilinear4(src, sw, sh, x as f32 / 2.0 - 0.25, sy);
-            for k in 0..4 {
+            let v = bilinear_n(src, sw, sh, x as f32 / 2.0 - 0.25, sy);
+            for k in 0..NSUM {
                 o[k] += v[k];
             }
         }

@@ -15,6 +15,9 @@ pub struct Reinhard02 {
     /// Smallest scaled luminance mapped to white; `None` uses the image's largest L_m, as the
     /// paper suggests.
     pub white: Option<f64>,
+    /// The log-average luminance L̄_w, cd/m²; `None` computes it from the image (eq. 1). Fixing
+    /// it (and `white`) freezes the curve, e.g. to map half-buffer images identically.
+    pub log_average: Option<f64>,
 }
 
 impl Default for Reinhard02 {
@@ -22,18 +25,27 @@ impl Default for Reinhard02 {
         Reinhard02 {
             key: 0.18,
             white: None,
+            log_average: None,
         }
     }
 }
 
 impl Reinhard02 {
+    /// The curve's parameters for an image: (L̄_w, L_white in scaled units).
+    pub fn parameters(&self, rgb_cd_m2: &[f32]) -> (f64, f64) {
+        let lum: Vec<f32> = rgb_cd_m2.chunks_exact(3).map(|p| luminance(p[0], p[1], p[2])).collect();
+        let lbar = self.log_average.unwrap_or_else(|| log_average(&lum) as f64).max(1e-9);
+        let lmax = lum.iter().fold(0f32, |a, &b| a.max(b)) as f64 * self.key / lbar;
+        (lbar, self.white.unwrap_or(lmax))
+    }
+
     /// Maps linear RGB (cd/m²) to display values in [0, 1].
     pub fn map(&self, rgb_cd_m2: &[f32]) -> Vec<f32> {
         let lum: Vec<f32> = rgb_cd_m2
             .chunks_exact(3)
             .map(|p| luminance(p[0], p[1], p[2]))
             .collect();
-        let lbar = log_average(&lum).max(1e-9) as f64;
+        let lbar = self.log_average.unwrap_or_else(|| log_average(&lum) as f64).max(1e-9);
         let scale = self.key / lbar;
         let lmax = lum.iter().fold(0f32, |a, &b| a.max(b)) as f64 * scale;
         let white2 = self.white.unwrap_or(lmax).max(1e-9).powi(2);
