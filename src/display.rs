@@ -85,7 +85,12 @@ impl FrozenToneMap {
     ///
     /// # Errors
     /// As [`tone_map`].
-    pub fn new(rgb: &[f32], width: usize, height: usize, s: &ToneMapSettings) -> perception::Result<Self> {
+    pub fn new(
+        rgb: &[f32],
+        width: usize,
+        height: usize,
+        s: &ToneMapSettings,
+    ) -> perception::Result<Self> {
         let rgb_cd: Vec<f32> = rgb.iter().map(|&v| v * s.luminance_scale).collect();
         let lum = luminance_image(&rgb_cd, 1.0);
         let mode = if s.operator == Operator::Wrp {
@@ -95,7 +100,8 @@ impl FrozenToneMap {
         };
         let adaptation = adaptation_luminance(&lum, width, height, &s.view, mode, 1.0)?;
         let exposure = perception::tmo::exposure::Exposure::default();
-        let exposure_scale = exposure.key / perception::adaptation::log_average(&lum).max(1e-9) as f64;
+        let exposure_scale =
+            exposure.key / perception::adaptation::log_average(&lum).max(1e-9) as f64;
         let reinhard = perception::tmo::reinhard02::Reinhard02::default().parameters(&rgb_cd);
         Ok(FrozenToneMap {
             settings: *s,
@@ -114,12 +120,12 @@ impl FrozenToneMap {
         match self.settings.operator {
             Operator::Tr | Operator::Fpsg => d.max_cd_m2.unwrap_or(125.0),
             Operator::Wrp => d.max_cd_m2.unwrap_or(100.0),
-            Operator::Ptyg => d
+            Operator::Ptyg => d.max_cd_m2.unwrap_or(
+                d.ambient_cd_m2.unwrap_or(25.0) * perception::tmo::pattanaik00::WHITE_FACTOR,
+            ),
+            Operator::Exposure | Operator::Reinhard => d
                 .max_cd_m2
-                .unwrap_or(d.ambient_cd_m2.unwrap_or(25.0) * perception::tmo::pattanaik00::WHITE_FACTOR),
-            Operator::Exposure | Operator::Reinhard => {
-                d.max_cd_m2.unwrap_or(perception::photometry::SRGB_WHITE_CD_M2 as f64)
-            }
+                .unwrap_or(perception::photometry::SRGB_WHITE_CD_M2 as f64),
         }
     }
 
@@ -130,7 +136,10 @@ impl FrozenToneMap {
     pub fn map(&self, rgb: &[f32]) -> perception::Result<Vec<f32>> {
         use perception::tmo::*;
         let s = &self.settings;
-        let rgb_cd: Vec<f32> = rgb.iter().map(|&v| (v * s.luminance_scale).max(0.0)).collect();
+        let rgb_cd: Vec<f32> = rgb
+            .iter()
+            .map(|&v| (v * s.luminance_scale).max(0.0))
+            .collect();
         let (w, h) = (self.width, self.height);
         perception::PerceptionError::check_rgb(&rgb_cd, w, h)?;
         let display = &s.display;
@@ -150,7 +159,13 @@ impl FrozenToneMap {
             op => {
                 // These operators depend on the image only through the adaptation map.
                 let mut out = apply(op, &rgb_cd, w, h, &self.adaptation, display);
-                if matches!(&out, Err(perception::PerceptionError::Parameter { name: "image luminance", .. })) {
+                if matches!(
+                    &out,
+                    Err(perception::PerceptionError::Parameter {
+                        name: "image luminance",
+                        ..
+                    })
+                ) {
                     out = Ok(vec![0.0; rgb.len()]);
                 }
                 out?
@@ -168,7 +183,8 @@ impl FrozenToneMap {
     }
 }
 
-fn register_font() {
+/// Registers the bundled DejaVu Sans as plotters' "sans-serif" (once).
+pub fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         let _ = plotters::style::register_font(

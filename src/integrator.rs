@@ -72,7 +72,11 @@ pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> Vec3 {
         if tri.light != u32::MAX && -ray.d.dot(hit.ng) > 0.0 {
             let le = material.emitted(hit.uv, &scene.textures);
             let y = crate::math::luminance(le);
-            let k = if y > ALBEDO_EMITTER_CAP { ALBEDO_EMITTER_CAP / y } else { 1.0 };
+            let k = if y > ALBEDO_EMITTER_CAP {
+                ALBEDO_EMITTER_CAP / y
+            } else {
+                1.0
+            };
             return weight * le * k;
         }
         let bsdf = material.bsdf(hit.uv, &scene.textures);
@@ -80,7 +84,11 @@ pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> Vec3 {
             Bsdf::Lambert(l) => return weight * l.reflectance,
             Bsdf::Glossy(g) => return weight * (g.kd + g.ks),
             Bsdf::Mirror(_) | Bsdf::Dielectric(_) => {
-                let ns = if !bsdf.is_transmissive() && ray.d.dot(hit.ng) > 0.0 { -hit.ns } else { hit.ns };
+                let ns = if !bsdf.is_transmissive() && ray.d.dot(hit.ng) > 0.0 {
+                    -hit.ns
+                } else {
+                    hit.ns
+                };
                 let frame = Frame::from_normal(ns);
                 let wo = frame.to_local(-ray.d);
                 let Some(s) = bsdf.sample(wo, rng.uniform(), rng.uniform2()) else {

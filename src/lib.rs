@@ -34,4 +34,5 @@ pub mod render;
 pub mod rng;
 pub mod sampling;
 pub mod scene;
+pub mod speedup;
 pub mod texture;

@@ -244,7 +244,11 @@ pub fn false_colour(values: &[f32], lo: f32, hi: f32) -> Vec<u8> {
     values
         .iter()
         .flat_map(|&v| {
-            let t = if v > 0.0 { ((v.ln() - l0) / (l1 - l0)).clamp(0.0, 1.0) } else { 0.0 };
+            let t = if v > 0.0 {
+                ((v.ln() - l0) / (l1 - l0)).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let i = (t * 255.0).round() as usize;
             [lut[3 * i], lut[3 * i + 1], lut[3 * i + 2]]
         })

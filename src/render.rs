@@ -75,7 +75,14 @@ pub fn render_counts(
     counts: &[u32],
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderStats {
-    render_counts_seeded(scene, integrator, film, counts, scene.settings.seed, progress)
+    render_counts_seeded(
+        scene,
+        integrator,
+        film,
+        counts,
+        scene.settings.seed,
+        progress,
+    )
 }
 
 /// As [`render_counts`] with an explicit seed (auxiliary renders such as the adaptive sampler's
@@ -148,7 +155,9 @@ pub fn render_albedo(scene: &Scene, spp: u32, seed: u64) -> Vec<f32> {
             let mut acc = glam::Vec3::ZERO;
             for k in 0..spp {
                 let mut rng = Rng::for_sample(seed, (y * w + x) as u64, k as u64);
-                let ray = scene.camera.generate_ray(x as u32, y as u32, rng.uniform2());
+                let ray = scene
+                    .camera
+                    .generate_ray(x as u32, y as u32, rng.uniform2());
                 let a = crate::integrator::albedo(scene, ray, &mut rng);
                 if a.is_finite() {
                     acc += a;

@@ -99,7 +99,7 @@ fn cli_output_is_identical_for_one_and_two_threads() {
     let (a, b) = (channels("a.exr"), channels("b.exr"));
     assert_eq!(
         a.iter().map(|c| c.0.clone()).collect::<Vec<_>>(),
-        ["B", "G", "R", "spp"]
+        ["B", "Error.Y", "G", "R", "Threshold.Y", "spp"]
     );
     assert!(a == b, "EXR channels differ");
     assert!(read("a.png") == read("b.png"), "PNG files differ");

@@ -2,6 +2,8 @@
 
 mod util;
 
+mod adaptive;
+
 mod bad_input;
 mod determinism;
 mod diff;

@@ -241,7 +241,11 @@ fn dilate3(m: &[bool], w: usize, h: usize) -> Vec<bool> {
                 (-1..=1).any(|dx| {
                     let xx = x + dx;
                     let yy = y + dy;
-                    xx >= 0 && yy >= 0 && xx < w as i64 && yy < h as i64 && m[yy as usize * w + xx as usize]
+                    xx >= 0
+                        && yy >= 0
+                        && xx < w as i64
+                        && yy < h as i64
+                        && m[yy as usize * w + xx as usize]
                 })
             })
         })
@@ -271,7 +275,11 @@ struct PerceptualState {
 }
 
 /// Luminance in visibility units of linear RGB under a frozen display map or the scene scale.
-fn visible_luminance(rgb: &[f32], frozen: Option<&FrozenToneMap>, scale: f32) -> perception::Result<Vec<f32>> {
+fn visible_luminance(
+    rgb: &[f32],
+    frozen: Option<&FrozenToneMap>,
+    scale: f32,
+) -> perception::Result<Vec<f32>> {
     match frozen {
         Some(f) => f.display_luminance(rgb),
         None => Ok(luminance_image(rgb, scale)),
@@ -323,7 +331,11 @@ pub fn render_adaptive(
             stats,
             guide_stats: None,
             passes,
-            stop: if s.budget_spp.is_some() { StopReason::Budget } else { StopReason::MaxSpp },
+            stop: if s.budget_spp.is_some() {
+                StopReason::Budget
+            } else {
+                StopReason::MaxSpp
+            },
             converged_fraction: 1.0,
             threshold: None,
             error: None,
@@ -339,7 +351,13 @@ pub fn render_adaptive(
         None => s.min_spp,
     }
     .clamp(1, s.max_spp);
-    stats += render_counts(scene, &integrator, &mut film, &vec![min_spp; n_px], sample_progress);
+    stats += render_counts(
+        scene,
+        &integrator,
+        &mut film,
+        &vec![min_spp; n_px],
+        sample_progress,
+    );
 
     // Guide and threshold elevation (perceptual).
     let mut guide_stats = None;
@@ -374,7 +392,11 @@ pub fn render_adaptive(
                 let lf = visible_luminance(&mean, frozen.as_ref(), scene_scale)?;
                 if perceptual.is_none() {
                     let t_guide = Instant::now();
-                    let albedo = render_albedo(scene, s.guide_spp.max(1), scene.settings.seed ^ 0x6A09_E667_F3BC_C908);
+                    let albedo = render_albedo(
+                        scene,
+                        s.guide_spp.max(1),
+                        scene.settings.seed ^ 0x6A09_E667_F3BC_C908,
+                    );
                     guide_time = t_guide.elapsed();
                     guide_stats = Some(RenderStats {
                         samples: (s.guide_spp.max(1) as u64) * n_px as u64,
@@ -386,7 +408,11 @@ pub fn render_adaptive(
                     let a_lum = luminance_image(&albedo, 1.0);
                     let mean_a = a_lum.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
                     let mean_f = lf.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
-                    let k = if mean_a > 0.0 { (mean_f / mean_a) as f32 } else { 1.0 };
+                    let k = if mean_a > 0.0 {
+                        (mean_f / mean_a) as f32
+                    } else {
+                        1.0
+                    };
                     let g_lum: Vec<f32> = a_lum.iter().map(|&v| v * k).collect();
                     let map = mapper.as_ref().expect("perceptual").compute(&g_lum, None)?;
                     perceptual = Some(PerceptualState {
@@ -424,7 +450,8 @@ pub fn render_adaptive(
                     .par_chunks_exact(3)
                     .zip(even.par_chunks_exact(3))
                     .map(|(f, a)| {
-                        let diff = ((f[0] - a[0]).abs() + (f[1] - a[1]).abs() + (f[2] - a[2]).abs()) * k;
+                        let diff =
+                            ((f[0] - a[0]).abs() + (f[1] - a[1]).abs() + (f[2] - a[2]).abs()) * k;
                         let i = (f[0] + f[1] + f[2]) * k;
                         let norm = if i < 1.0 { i.max(0.0).sqrt() } else { i };
                         diff / (1e-4 + norm)
@@ -518,7 +545,9 @@ pub fn render_adaptive(
             }
             let mut left = rem - want.iter().map(|&c| c as u64).sum::<u64>();
             if left > 0 {
-                let mut order: Vec<usize> = (0..n_px).filter(|&i| reopen[i] && film.pixels[i].n < s.max_spp).collect();
+                let mut order: Vec<usize> = (0..n_px)
+                    .filter(|&i| reopen[i] && film.pixels[i].n < s.max_spp)
+                    .collect();
                 order.sort_by(|&a, &b| ratio[b].total_cmp(&ratio[a]).then(a.cmp(&b)));
                 for i in order {
                     if left == 0 {

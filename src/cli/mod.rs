@@ -3,6 +3,7 @@
 
 mod diff;
 mod render;
+mod speedup;
 mod tonemap;
 
 use clap::{Parser, Subcommand};
@@ -26,6 +27,9 @@ enum Command {
     /// Tone map an HDR image (EXR, HDR) to PNG or display-linear EXR, or to a labelled contact
     /// sheet of every operator.
     Tonemap(tonemap::TonemapArgs),
+    /// Benchmark perceptual sampling against uniform and variance sampling at equal quality
+    /// (FLIP, aleph's metric, relMSE) against a cached high-spp reference.
+    Speedup(speedup::SpeedupArgs),
 }
 
 /// Exit status for errors (bad input, I/O failures).
@@ -37,6 +41,7 @@ pub fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Diff(args) => diff::run(args),
         Command::Tonemap(args) => tonemap::run(args),
+        Command::Speedup(args) => speedup::run(args),
     };
     match result {
         Ok(code) => code,

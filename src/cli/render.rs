@@ -60,25 +60,55 @@ pub enum VisibilityArg {
 #[derive(Args, Debug, Clone)]
 pub struct SamplingArgs {
     /// Samples of the first, uniform pass of the adaptive samplers.
-    #[arg(long, value_name = "N", default_value_t = 8, help_heading = "Adaptive sampling")]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 8,
+        help_heading = "Adaptive sampling"
+    )]
     pub min_spp: u32,
     /// Cap on any one pixel's samples.
-    #[arg(long, value_name = "N", default_value_t = 4096, help_heading = "Adaptive sampling")]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 4096,
+        help_heading = "Adaptive sampling"
+    )]
     pub max_spp: u32,
     /// Stop after this many seconds (the image then depends on the machine's speed).
     #[arg(long, value_name = "SECONDS", help_heading = "Adaptive sampling")]
     pub time: Option<f64>,
     /// Where visibility is judged.
-    #[arg(long, value_enum, default_value = "display", help_heading = "Adaptive sampling")]
+    #[arg(
+        long,
+        value_enum,
+        default_value = "display",
+        help_heading = "Adaptive sampling"
+    )]
     pub visibility: VisibilityArg,
     /// Fraction of pixels below threshold that counts as converged.
-    #[arg(long, value_name = "F", default_value_t = 0.995, help_heading = "Adaptive sampling")]
+    #[arg(
+        long,
+        value_name = "F",
+        default_value_t = 0.995,
+        help_heading = "Adaptive sampling"
+    )]
     pub converged: f64,
     /// Noise threshold of the variance sampler (Cycles' default 0.01).
-    #[arg(long, value_name = "T", default_value_t = 0.01, help_heading = "Adaptive sampling")]
+    #[arg(
+        long,
+        value_name = "T",
+        default_value_t = 0.01,
+        help_heading = "Adaptive sampling"
+    )]
     pub noise_threshold: f32,
     /// Antialiasing samples per pixel of the albedo guide that sets the perceptual masking.
-    #[arg(long, value_name = "N", default_value_t = 4, help_heading = "Adaptive sampling")]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 4,
+        help_heading = "Adaptive sampling"
+    )]
     pub guide_spp: u32,
     /// Pixels per degree of the viewer (default: FLIP's 0.7 m, 3840-pixel monitor at 0.7 m,
     /// 67.0 ppd).
@@ -99,13 +129,20 @@ impl SamplingArgs {
             bail!("--min-spp must be at least 2 (the error estimate needs both half-buffers)");
         }
         if self.max_spp < self.min_spp {
-            bail!("--max-spp ({}) must be at least --min-spp ({})", self.max_spp, self.min_spp);
+            bail!(
+                "--max-spp ({}) must be at least --min-spp ({})",
+                self.max_spp,
+                self.min_spp
+            );
         }
         if !(self.converged > 0.0 && self.converged <= 1.0) {
             bail!("--converged must be in (0, 1], got {}", self.converged);
         }
         if !(self.noise_threshold.is_finite() && self.noise_threshold > 0.0) {
-            bail!("--noise-threshold must be positive, got {}", self.noise_threshold);
+            bail!(
+                "--noise-threshold must be positive, got {}",
+                self.noise_threshold
+            );
         }
         let time_budget = match self.time {
             Some(t) if t.is_finite() && t > 0.0 => Some(Duration::from_secs_f64(t)),
@@ -170,7 +207,12 @@ pub struct RenderArgs {
     /// Exposure of the PNG in stops (radiance × 2^EV before sRGB encoding) when no --tonemap is
     /// given. Default: automatic, mapping the log-average luminance to 0.18 (also the curve the
     /// perceptual sampler judges with).
-    #[arg(long, value_name = "EV", allow_negative_numbers = true, conflicts_with = "tonemap")]
+    #[arg(
+        long,
+        value_name = "EV",
+        allow_negative_numbers = true,
+        conflicts_with = "tonemap"
+    )]
     exposure: Option<f32>,
     /// Tone operator for the PNG (the EXR stays linear) and for display visibility. Luminance is
     /// radiance × the scene's render.luminance_scale.
@@ -189,7 +231,10 @@ pub struct RenderArgs {
 /// Output stem: explicit, or the scene's name (its directory's name for `scene.toml`).
 fn output_stem(args: &RenderArgs, scene: &Path) -> PathBuf {
     if let Some(o) = &args.output {
-        let ext = o.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let ext = o
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
         return match ext.as_deref() {
             Some("exr") | Some("png") => o.with_extension(""),
             _ => o.clone(),
@@ -238,14 +283,23 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     with_threads(args.threads, move || render_and_write(desc, &stem, &args))?
 }
 
-fn render_and_write(desc: SceneDescription, stem: &Path, args: &RenderArgs) -> anyhow::Result<ExitCode> {
+fn render_and_write(
+    desc: SceneDescription,
+    stem: &Path,
+    args: &RenderArgs,
+) -> anyhow::Result<ExitCode> {
     let scene = Scene::load_description(desc)?;
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let op = args.tonemap.map(Operator::from).unwrap_or(Operator::Exposure);
-    let tone = args.tone.settings(op, w as usize, scene.settings.luminance_scale)?;
-    let settings = args
-        .sampling
-        .settings(args.sampler.into(), args.spp, scene.settings.spp, tone)?;
+    let op = args
+        .tonemap
+        .map(Operator::from)
+        .unwrap_or(Operator::Exposure);
+    let tone = args
+        .tone
+        .settings(op, w as usize, scene.settings.luminance_scale)?;
+    let settings =
+        args.sampling
+            .settings(args.sampler.into(), args.spp, scene.settings.spp, tone)?;
 
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
     bar.set_style(ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap());
@@ -265,7 +319,7 @@ fn render_and_write(desc: SceneDescription, stem: &Path, args: &RenderArgs) -> a
         &|_| {},
     )?;
     bar.finish_and_clear();
-    write_outputs(&scene, stem, args, &settings, &result)?;
+    let look = write_outputs(&scene, stem, args, &settings, &result)?;
 
     let secs = result.wall.as_secs_f64().max(1e-9);
     let st = &result.stats;
@@ -273,12 +327,16 @@ fn render_and_write(desc: SceneDescription, stem: &Path, args: &RenderArgs) -> a
     println!(
         "{}: {w}×{h}, {} sampler, {:.1} spp mean ({} passes{}), {}, {:.1} % of pixels below threshold, \
          {:.2} s ({:.2} s perception), {:.2} M samples/s, {:.2} M rays/s, {} non-finite samples dropped, \
-         viewer at {:.1} pixels per degree -> {}, {}",
+         viewer at {:.1} pixels per degree -> {}, {} ({look})",
         scene.path.display(),
         settings.sampler.name(),
         result.mean_spp(),
         result.passes.len(),
-        if guide > 0 { format!(" + {:.1} spp guide", guide as f64 / (w * h) as f64) } else { String::new() },
+        if guide > 0 {
+            format!(" + {:.1} spp guide", guide as f64 / (w * h) as f64)
+        } else {
+            String::new()
+        },
         result.stop.describe(),
         100.0 * result.converged_fraction,
         secs,
@@ -299,7 +357,7 @@ fn write_outputs(
     args: &RenderArgs,
     settings: &AdaptiveSettings,
     result: &AdaptiveResult,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<String> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let film = &result.film;
     let rgb = film.mean_rgb();
@@ -307,7 +365,10 @@ fn write_outputs(
     let png_path = with_ext(stem, "png");
     let mut out = AtomicOutputs::new();
     let mut attributes = vec![
-        ("radianceUnits".to_string(), "W.sr^-1.m^-2 (linear Rec.709 RGB)".to_string()),
+        (
+            "radianceUnits".to_string(),
+            "W.sr^-1.m^-2 (linear Rec.709 RGB)".to_string(),
+        ),
         ("sppUnits".to_string(), "samples per pixel".to_string()),
         ("scene".to_string(), scene.path.display().to_string()),
         ("sampler".to_string(), settings.sampler.name().to_string()),
@@ -319,12 +380,17 @@ fn write_outputs(
         attributes.push(("thresholdUnits".to_string(), result.units.to_string()));
         attributes.push(("errorUnits".to_string(), result.units.to_string()));
     }
-    out.stage(&exr_path, |wr| write_exr(wr, &exr_path, w, h, &rgb, &extra, &attributes))?;
-    let display = match args.tonemap {
-        Some(_) => encode_srgb8(&tone_map(&rgb, w as usize, h as usize, &settings.tone)?),
+    out.stage(&exr_path, |wr| {
+        write_exr(wr, &exr_path, w, h, &rgb, &extra, &attributes)
+    })?;
+    let (display, look) = match args.tonemap {
+        Some(_) => (
+            encode_srgb8(&tone_map(&rgb, w as usize, h as usize, &settings.tone)?),
+            format!("tone operator {}", settings.tone.operator.name()),
+        ),
         None => {
             let ev = args.exposure.unwrap_or_else(|| auto_exposure_ev(&rgb));
-            encode_srgb8(&expose(&rgb, ev))
+            (encode_srgb8(&expose(&rgb, ev)), format!("{ev:+.2} EV"))
         }
     };
     out.stage(&png_path, |wr| write_png(wr, &png_path, w, h, &display))?;
@@ -345,5 +411,5 @@ fn write_outputs(
         }
     }
     out.commit().context("writing outputs")?;
-    Ok(())
+    Ok(look)
 }

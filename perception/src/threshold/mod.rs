@@ -588,7 +588,13 @@ impl ThresholdMapper {
             1.0
         };
         let sm = s / m;
-        [wgt, wgt * e, wgt * m, wgt * e * m, band.noise_share * sm * sm]
+        [
+            wgt,
+            wgt * e,
+            wgt * m,
+            wgt * e * m,
+            band.noise_share * sm * sm,
+        ]
     }
 
     /// Bilinear sample of a level canvas (decimation `d`) at full-canvas coordinates (pixel

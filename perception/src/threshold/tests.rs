@@ -146,3 +146,58 @@ fn bad_input_is_an_error_not_a_panic() {
     ));
     assert!(m.compute(&[1.0; 16], Some(&[0.0; 31])).is_err());
 }
+
+#[test]
+fn noise_threshold_rises_in_the_dark_and_under_masking_in_its_own_bands() {
+    // Flat fields at FLIP's 67 ppd. White pixel noise puts ≈ 85 % of its power in band 0 (33 cpd,
+    // where Daly's S ≈ 5 at 100 cd/m²) and most of its *visibility* in bands 1–3 (8–16 cpd,
+    // S ≈ 60–180): C_noise = 1/sqrt(Σ φ² S²) ≈ 2 % at 100 cd/m². At 1 cd/m² every S_k falls
+    // (peak 117 vs 237, and faster at high frequency), so the threshold contrast rises: dark
+    // regions tolerate more relative error (de Vries–Rose regime).
+    let v = ViewingConditions::default();
+    let (w, h) = (128, 128);
+    let m = ThresholdMapper::new(w, h, v, ThresholdParams::default()).unwrap();
+    let c = (h / 2) * w + w / 2;
+    let at = |l: f32| m.compute(&vec![l; w * h], None).unwrap().noise_contrast[c];
+    let (dark, bright) = (at(1.0), at(100.0));
+    assert!(bright > 0.01 && bright < 0.04, "C_noise(100) = {bright}");
+    assert!(
+        dark > 1.5 * bright,
+        "C_noise(1) = {dark} vs C_noise(100) = {bright}"
+    );
+    // Masking is band-specific. A checkerboard of 20 and 180 cd/m² in 4×4-pixel squares has its
+    // fundamental at a period of 8 px (8.4 cpd, band 2) with contrast 0.8: c·S ≈ 0.8 · 180 ≈ 144
+    // threshold units, T_e ≈ 0.0153 (392.5 · 144)^0.7 ≈ 33, so band 2 — with its neighbours the
+    // bands where pixel noise is most visible — stops counting and the threshold rises (the
+    // remaining bands keep it below the cap max_elevation / S_max ≈ 0.045).
+    let checker = |sq: usize| -> Vec<f32> {
+        (0..w * h)
+            .map(|i| {
+                if ((i % w) / sq + (i / w) / sq) % 2 == 0 {
+                    20.0
+                } else {
+                    180.0
+                }
+            })
+            .collect()
+    };
+    let masked = m.compute(&checker(4), None).unwrap().noise_contrast[c];
+    assert!(
+        masked > 1.4 * bright && masked <= 0.05,
+        "masked {masked} vs {bright}"
+    );
+    // A 1-pixel checkerboard lives at 47 cpd, beyond band 0's centre, where the noise is
+    // already nearly invisible: it masks almost nothing of it.
+    let fine = m.compute(&checker(1), None).unwrap().noise_contrast[c];
+    assert!(fine < 1.05 * bright, "1-px checker {fine} vs {bright}");
+    // A coarse step far away (period ≫ the noise's bands) barely changes it: content in other
+    // bands does not mask fine grain.
+    let step: Vec<f32> = (0..w * h)
+        .map(|i| if i % w < 8 { 1000.0 } else { 100.0 })
+        .collect();
+    let far = m.compute(&step, None).unwrap().noise_contrast[(h / 2) * w + 100];
+    assert!(
+        far < 1.3 * bright,
+        "far from a coarse edge: {far} vs {bright}"
+    );
+}

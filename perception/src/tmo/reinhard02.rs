@@ -33,8 +33,14 @@ impl Default for Reinhard02 {
 impl Reinhard02 {
     /// The curve's parameters for an image: (L̄_w, L_white in scaled units).
     pub fn parameters(&self, rgb_cd_m2: &[f32]) -> (f64, f64) {
-        let lum: Vec<f32> = rgb_cd_m2.chunks_exact(3).map(|p| luminance(p[0], p[1], p[2])).collect();
-        let lbar = self.log_average.unwrap_or_else(|| log_average(&lum) as f64).max(1e-9);
+        let lum: Vec<f32> = rgb_cd_m2
+            .chunks_exact(3)
+            .map(|p| luminance(p[0], p[1], p[2]))
+            .collect();
+        let lbar = self
+            .log_average
+            .unwrap_or_else(|| log_average(&lum) as f64)
+            .max(1e-9);
         let lmax = lum.iter().fold(0f32, |a, &b| a.max(b)) as f64 * self.key / lbar;
         (lbar, self.white.unwrap_or(lmax))
     }
@@ -45,7 +51,10 @@ impl Reinhard02 {
             .chunks_exact(3)
             .map(|p| luminance(p[0], p[1], p[2]))
             .collect();
-        let lbar = self.log_average.unwrap_or_else(|| log_average(&lum) as f64).max(1e-9);
+        let lbar = self
+            .log_average
+            .unwrap_or_else(|| log_average(&lum) as f64)
+            .max(1e-9);
         let scale = self.key / lbar;
         let lmax = lum.iter().fold(0f32, |a, &b| a.max(b)) as f64 * scale;
         let white2 = self.white.unwrap_or(lmax).max(1e-9).powi(2);

@@ -1,0 +1,570 @@
+//! `aleph speedup [SCENE]`: how much perceptual sampling saves at equal quality.
+
+use super::render::{SamplingArgs, default_scene};
+use super::tonemap::{OperatorArg, ToneArgs};
+use super::{parse_resolution, with_threads};
+use aleph::adaptive::{SamplerKind, render_adaptive};
+use aleph::display::FrozenToneMap;
+use aleph::film::Film;
+use aleph::integrator::Strategy;
+use aleph::output::{AtomicOutputs, ChannelData, write_exr, write_png};
+use aleph::render::render_uniform;
+use aleph::scene::{Scene, SceneDescription};
+use aleph::speedup::{Judge, Scores, samples_for};
+use anyhow::{Context, bail};
+use clap::Args;
+use perception::tmo::Operator;
+use plotters::prelude::*;
+use std::collections::HashMap;
+use std::fmt::Write as _;
+use std::hash::Hasher;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+#[derive(Args, Debug)]
+pub struct SpeedupArgs {
+    /// Scene file (default: the bundled Cornell box).
+    scene: Option<PathBuf>,
+    /// Output directory for the table, CSV, plots, images and the cached reference.
+    #[arg(short, long, value_name = "DIR")]
+    output: Option<PathBuf>,
+    /// Image size (default 256x256).
+    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
+    resolution: Option<(u32, u32)>,
+    /// Average budgets of the sweep, spp.
+    #[arg(long, value_name = "N,N,…", value_delimiter = ',', default_values_t = vec![1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0])]
+    budgets: Vec<f64>,
+    /// Samples per pixel of the uniform reference.
+    #[arg(long, value_name = "N", default_value_t = 4096)]
+    reference_spp: u32,
+    /// Random seed of the test renders (the reference uses an independent one).
+    #[arg(long, value_name = "S", default_value_t = 0)]
+    seed: u64,
+    /// Worker threads.
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+    /// Tone operator of the judged display images (default: exposure, as `render` writes).
+    #[arg(long, value_enum, value_name = "OP")]
+    tonemap: Option<OperatorArg>,
+    #[command(flatten)]
+    sampling: SamplingArgs,
+    #[command(flatten)]
+    tone: ToneArgs,
+}
+
+/// One render of the sweep.
+#[derive(Clone, Debug)]
+struct Row {
+    sampler: SamplerKind,
+    budget: f64,
+    mean_spp: f64,
+    guide_spp: f64,
+    wall_s: f64,
+    decision_s: f64,
+    scores: Scores,
+}
+
+/// FNV-1a over the scene file, its meshes and the settings that change the reference.
+fn reference_key(desc: &SceneDescription, spp: u32, seed: u64) -> String {
+    struct Fnv(u64);
+    impl Hasher for Fnv {
+        fn finish(&self) -> u64 {
+            self.0
+        }
+        fn write(&mut self, bytes: &[u8]) {
+            for b in bytes {
+                self.0 = (self.0 ^ *b as u64).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+    }
+    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+    h.write(&std::fs::read(&desc.path).unwrap_or_default());
+    let base = desc.path.parent().unwrap_or(Path::new(""));
+    for m in &desc.meshes {
+        h.write(&std::fs::read(base.join(&m.file)).unwrap_or_default());
+    }
+    h.write(
+        format!(
+            "{:?}|{spp}|{seed}|{:?}|{}",
+            desc.camera.resolution,
+            desc.render.max_depth,
+            env!("CARGO_PKG_VERSION")
+        )
+        .as_bytes(),
+    );
+    format!("{:016x}", h.finish())
+}
+
+fn planes(film: &Film) -> Vec<(String, ChannelData)> {
+    let mut v = Vec::new();
+    for (prefix, data) in [("Even", film.mean_rgb_even()), ("Odd", film.mean_rgb_odd())] {
+        for (c, name) in ["R", "G", "B"].iter().enumerate() {
+            let p: Vec<f32> = data.iter().skip(c).step_by(3).copied().collect();
+            v.push((format!("{prefix}.{name}"), ChannelData::F32(p)));
+        }
+    }
+    v.push(("spp".into(), ChannelData::U32(film.spp())));
+    v
+}
+
+/// The reference: mean, even half and odd half (interleaved RGB each).
+struct Reference {
+    mean: Vec<f32>,
+    even: Vec<f32>,
+    odd: Vec<f32>,
+}
+
+fn read_reference(path: &Path, n: usize) -> Option<Reference> {
+    let img = exr::prelude::read_all_flat_layers_from_file(path).ok()?;
+    let ch: HashMap<String, Vec<f32>> = img.layer_data[0]
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect();
+    let get = |p: &str| -> Option<Vec<f32>> {
+        let (r, g, b) = (
+            ch.get(&format!("{p}R"))?,
+            ch.get(&format!("{p}G"))?,
+            ch.get(&format!("{p}B"))?,
+        );
+        if r.len() != n {
+            return None;
+        }
+        Some((0..n).flat_map(|i| [r[i], g[i], b[i]]).collect())
+    };
+    Some(Reference {
+        mean: get("")?,
+        even: get("Even.")?,
+        odd: get("Odd.")?,
+    })
+}
+
+pub fn run(args: SpeedupArgs) -> anyhow::Result<ExitCode> {
+    let scene_path = args.scene.clone().unwrap_or_else(default_scene);
+    let mut desc = SceneDescription::read(&scene_path)?;
+    let (w, h) = args.resolution.unwrap_or((256, 256));
+    desc.camera.resolution = [w, h];
+    desc.render.seed = Some(args.seed);
+    if args.budgets.is_empty() || args.budgets.iter().any(|b| !(b.is_finite() && *b >= 1.0)) {
+        bail!("--budgets must be numbers ≥ 1, got {:?}", args.budgets);
+    }
+    if args.reference_spp < 2 {
+        bail!("--reference-spp must be at least 2");
+    }
+    let name = scene_path
+        .parent()
+        .and_then(|p| p.file_name())
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_else(|| "scene".into());
+    let dir = args
+        .output
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("speedup-{name}")));
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("{}: cannot create directory", dir.display()))?;
+    with_threads(args.threads, move || sweep(desc, &dir, &args))?
+}
+
+fn sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Result<ExitCode> {
+    let key = reference_key(&desc, args.reference_spp, args.seed);
+    let mut ref_desc = desc.clone();
+    ref_desc.render.seed = Some(args.seed ^ 0x5851_F42D_4C95_7F2D);
+    let scene = Scene::load_description(desc)?;
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let n = w * h;
+
+    // Reference (cached).
+    let ref_path = dir.join(format!("reference-{key}.exr"));
+    let reference = match read_reference(&ref_path, n) {
+        Some(r) => {
+            eprintln!("using cached reference {}", ref_path.display());
+            r
+        }
+        None => {
+            eprintln!(
+                "rendering the reference: {w}×{h} at {} spp …",
+                args.reference_spp
+            );
+            let ref_scene = Scene::load_description(ref_desc)?;
+            let t = Instant::now();
+            let (film, _) = render_uniform(&ref_scene, Strategy::Mis, args.reference_spp, &|_| {});
+            eprintln!("reference rendered in {:.1} s", t.elapsed().as_secs_f64());
+            let mean = film.mean_rgb();
+            let mut out = AtomicOutputs::new();
+            let attrs = vec![("referenceSpp".to_string(), args.reference_spp.to_string())];
+            out.stage(&ref_path, |wr| {
+                write_exr(
+                    wr,
+                    &ref_path,
+                    w as u32,
+                    h as u32,
+                    &mean,
+                    &planes(&film),
+                    &attrs,
+                )
+            })?;
+            out.commit()?;
+            Reference {
+                mean,
+                even: film.mean_rgb_even(),
+                odd: film.mean_rgb_odd(),
+            }
+        }
+    };
+
+    let op = args
+        .tonemap
+        .map(Operator::from)
+        .unwrap_or(Operator::Exposure);
+    let tone = args.tone.settings(op, w, scene.settings.luminance_scale)?;
+    let frozen = FrozenToneMap::new(&reference.mean, w, h, &tone)?;
+    let view = match args.sampling.ppd {
+        Some(p) => perception::viewing::ViewingConditions {
+            ppd: p,
+            ..tone.view
+        },
+        None => tone.view,
+    };
+    let judge = Judge::new(reference.mean.clone(), w, h, frozen.clone(), view)?;
+    let floor =
+        Judge::new(reference.even.clone(), w, h, frozen.clone(), view)?.score(&reference.odd)?;
+
+    // The sweep.
+    let mut rows: Vec<Row> = Vec::new();
+    let samplers = [
+        SamplerKind::Uniform,
+        SamplerKind::Variance,
+        SamplerKind::Perceptual,
+    ];
+    let mut images = AtomicOutputs::new();
+    for &budget in &args.budgets {
+        for sampler in samplers {
+            let settings = args
+                .sampling
+                .settings(sampler, Some(budget), budget as u32, tone)?;
+            let t = Instant::now();
+            let r = render_adaptive(&scene, &settings, &|_| {}, &|_| {})?;
+            let wall = t.elapsed().as_secs_f64();
+            let rgb = r.film.mean_rgb();
+            let scores = judge.score(&rgb)?;
+            let row = Row {
+                sampler,
+                budget,
+                mean_spp: r.mean_spp(),
+                guide_spp: r
+                    .guide_stats
+                    .map(|g| g.samples as f64 / n as f64)
+                    .unwrap_or(0.0),
+                wall_s: wall,
+                decision_s: r.decision_time.as_secs_f64(),
+                scores,
+            };
+            eprintln!(
+                "{:>10} {:>6} spp: {:7.2} spp used, {:7.2} s, FLIP {:.4} (p99 {:.4}), visible {:.4}, relMSE {:.5}",
+                sampler.name(),
+                budget,
+                row.mean_spp,
+                wall,
+                scores.flip_mean,
+                scores.flip_p99,
+                scores.visible_fraction,
+                scores.relmse
+            );
+            let png = dir.join(format!("{}-{}spp.png", sampler.name(), budget));
+            let srgb = judge.display_srgb(&rgb)?;
+            images.stage(&png, |wr| write_png(wr, &png, w as u32, h as u32, &srgb))?;
+            rows.push(row);
+        }
+    }
+    images.commit()?;
+    let report = report(&rows, &floor, args, &scene, w, h, view.ppd);
+    print!("{report}");
+    let mut out = AtomicOutputs::new();
+    let csv = csv(&rows);
+    let csv_path = dir.join("speedup.csv");
+    out.stage(&csv_path, |wr| {
+        use std::io::Write;
+        wr.write_all(csv.as_bytes())
+            .map_err(|source| aleph::output::OutputError::Io {
+                path: csv_path.clone(),
+                source,
+            })
+    })?;
+    let md_path = dir.join("speedup.md");
+    out.stage(&md_path, |wr| {
+        use std::io::Write;
+        wr.write_all(report.as_bytes())
+            .map_err(|source| aleph::output::OutputError::Io {
+                path: md_path.clone(),
+                source,
+            })
+    })?;
+    let (png, pw, ph) = plot_png(&rows, &floor)?;
+    let plot_path = dir.join("speedup.png");
+    out.stage(&plot_path, |wr| write_png(wr, &plot_path, pw, ph, &png))?;
+    let svg = plot_svg(&rows, &floor)?;
+    let svg_path = dir.join("speedup.svg");
+    out.stage(&svg_path, |wr| {
+        use std::io::Write;
+        wr.write_all(svg.as_bytes())
+            .map_err(|source| aleph::output::OutputError::Io {
+                path: svg_path.clone(),
+                source,
+            })
+    })?;
+    out.commit()?;
+    eprintln!("wrote {}", dir.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn csv(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "sampler,budget_spp,mean_spp,guide_spp,wall_s,perception_s,flip_mean,flip_p99,visible_fraction,relmse\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{:.4},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8}",
+            r.sampler.name(),
+            r.budget,
+            r.mean_spp,
+            r.guide_spp,
+            r.wall_s,
+            r.decision_s,
+            r.scores.flip_mean,
+            r.scores.flip_p99,
+            r.scores.visible_fraction,
+            r.scores.relmse
+        );
+    }
+    s
+}
+
+fn curve(
+    rows: &[Row],
+    s: SamplerKind,
+    x: impl Fn(&Row) -> f64,
+    y: impl Fn(&Row) -> f64,
+) -> Vec<(f64, f64)> {
+    let mut c: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r.sampler == s)
+        .map(|r| (x(r), y(r)))
+        .collect();
+    c.sort_by(|a, b| a.0.total_cmp(&b.0));
+    c
+}
+
+fn report(
+    rows: &[Row],
+    floor: &Scores,
+    args: &SpeedupArgs,
+    scene: &Scene,
+    w: usize,
+    h: usize,
+    ppd: f64,
+) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# aleph speedup: {}", scene.path.display());
+    let _ = writeln!(
+        s,
+        "\n{w}×{h}, reference {} spp uniform (its own noise floor, FLIP between its two half-buffers: mean {:.4}, p99 {:.4}); viewer at {:.1} pixels per degree.\n",
+        args.reference_spp, floor.flip_mean, floor.flip_p99, ppd
+    );
+    let _ = writeln!(
+        s,
+        "| sampler | budget spp | spp used | wall s | perception s | FLIP mean | FLIP p99 | aleph visible | relMSE |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.2} | {:.2} | {:.3} | {:.4} | {:.4} | {:.4} | {:.5} |",
+            r.sampler.name(),
+            r.budget,
+            r.mean_spp,
+            r.wall_s,
+            r.decision_s,
+            r.scores.flip_mean,
+            r.scores.flip_p99,
+            r.scores.visible_fraction,
+            r.scores.relmse
+        );
+    }
+    for (label, metric) in [
+        (
+            "FLIP mean",
+            (|r: &Row| r.scores.flip_mean) as fn(&Row) -> f64,
+        ),
+        ("FLIP p99", |r: &Row| r.scores.flip_p99),
+    ] {
+        let _ = writeln!(s, "\n## Equal {label}\n");
+        let _ = writeln!(
+            s,
+            "| target {label} | uniform spp | variance spp | perceptual spp | speedup vs uniform (spp) | vs variance (spp) | speedup vs uniform (time) | vs variance (time) |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
+        let uni = curve(rows, SamplerKind::Uniform, |r| r.mean_spp, metric);
+        // Targets: the uniform sampler's scores at its budgets (excluding the extremes).
+        let targets: Vec<f64> = uni.iter().skip(1).map(|p| p.1).collect();
+        for t in targets {
+            let spp = |k| samples_for(&curve(rows, k, |r| r.mean_spp, metric), t);
+            let time = |k| samples_for(&curve(rows, k, |r| r.wall_s, metric), t);
+            let f = |v: Option<f64>| v.map(|x| format!("{x:.2}")).unwrap_or_else(|| "—".into());
+            let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+                (Some(a), Some(b)) if b > 0.0 => format!("{:.2}×", a / b),
+                _ => "—".into(),
+            };
+            let (us, vs, ps) = (
+                spp(SamplerKind::Uniform),
+                spp(SamplerKind::Variance),
+                spp(SamplerKind::Perceptual),
+            );
+            let (ut, vt, pt) = (
+                time(SamplerKind::Uniform),
+                time(SamplerKind::Variance),
+                time(SamplerKind::Perceptual),
+            );
+            let _ = writeln!(
+                s,
+                "| {t:.4} | {} | {} | {} | {} | {} | {} | {} |",
+                f(us),
+                f(vs),
+                f(ps),
+                ratio(us, ps),
+                ratio(vs, ps),
+                ratio(ut, pt),
+                ratio(vt, pt)
+            );
+        }
+    }
+    let perc: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.sampler == SamplerKind::Perceptual)
+        .collect();
+    let total: f64 = perc.iter().map(|r| r.wall_s).sum();
+    let dec: f64 = perc.iter().map(|r| r.decision_s).sum();
+    let guide = perc.iter().map(|r| r.guide_spp).fold(0.0, f64::max);
+    let _ = writeln!(
+        s,
+        "\nPerception overhead of the perceptual sampler: {:.3} s of {:.2} s wall time over the sweep ({:.1} %), plus a {guide:.0}-spp albedo guide per render.",
+        dec,
+        total,
+        100.0 * dec / total.max(1e-9)
+    );
+    s
+}
+
+type Series = (SamplerKind, RGBColor);
+const SERIES: [Series; 3] = [
+    (SamplerKind::Uniform, RGBColor(90, 90, 90)),
+    (SamplerKind::Variance, RGBColor(30, 110, 200)),
+    (SamplerKind::Perceptual, RGBColor(220, 60, 30)),
+];
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    rows: &[Row],
+    floor: &Scores,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let panels = root.split_evenly((2, 2));
+    let metrics: [(&str, fn(&Row) -> f64, f64); 2] = [
+        ("FLIP mean", |r| r.scores.flip_mean, floor.flip_mean),
+        ("FLIP p99 (5×5)", |r| r.scores.flip_p99, floor.flip_p99),
+    ];
+    let axes: [(&str, fn(&Row) -> f64); 2] = [
+        ("samples per pixel", |r| r.mean_spp),
+        ("wall time (s)", |r| r.wall_s),
+    ];
+    for (pi, panel) in panels.iter().enumerate() {
+        let (mname, mf, fl) = metrics[pi / 2];
+        let (xname, xf) = axes[pi % 2];
+        let xs: Vec<f64> = rows.iter().map(xf).collect();
+        let ys: Vec<f64> = rows.iter().map(mf).chain([fl]).collect();
+        let (x0, x1) = (
+            xs.iter().cloned().fold(f64::INFINITY, f64::min) * 0.8,
+            xs.iter().cloned().fold(0.0, f64::max) * 1.25,
+        );
+        let (y0, y1) = (
+            ys.iter().cloned().fold(f64::INFINITY, f64::min).max(1e-5) * 0.8,
+            ys.iter().cloned().fold(0.0, f64::max) * 1.25,
+        );
+        let mut chart = ChartBuilder::on(panel)
+            .caption(format!("{mname} vs {xname}"), ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(56)
+            .build_cartesian_2d(
+                (x0.max(1e-4)..x1.max(x0 * 2.0)).log_scale(),
+                (y0..y1).log_scale(),
+            )
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .x_desc(xname)
+            .y_desc(mname)
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        for (k, color) in SERIES {
+            let c = curve(rows, k, xf, mf);
+            chart
+                .draw_series(LineSeries::new(c.clone(), color.stroke_width(2)))
+                .map_err(|e| e.to_string())?
+                .label(k.name())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                });
+            chart
+                .draw_series(c.iter().map(|&p| Circle::new(p, 3, color.filled())))
+                .map_err(|e| e.to_string())?;
+        }
+        chart
+            .draw_series(LineSeries::new(
+                vec![(x0.max(1e-4), fl), (x1, fl)],
+                BLACK.mix(0.4).stroke_width(1),
+            ))
+            .map_err(|e| e.to_string())?
+            .label("reference noise floor")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.4)));
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK.mix(0.3))
+            .label_font(("sans-serif", 13))
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    root.present().map_err(|e| e.to_string())
+}
+
+fn plot_png(rows: &[Row], floor: &Scores) -> anyhow::Result<(Vec<u8>, u32, u32)> {
+    aleph::display::register_font();
+    let (w, h) = (1200u32, 900u32);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    draw(
+        BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area(),
+        rows,
+        floor,
+    )
+    .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+    Ok((buf, w, h))
+}
+
+fn plot_svg(rows: &[Row], floor: &Scores) -> anyhow::Result<String> {
+    aleph::display::register_font();
+    let mut s = String::new();
+    draw(
+        SVGBackend::with_string(&mut s, (1200, 900)).into_drawing_area(),
+        rows,
+        floor,
+    )
+    .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+    Ok(s)
+}

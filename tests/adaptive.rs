@@ -1,0 +1,302 @@
+//! Adaptive sampling: where the samples go, and that the loop is honest.
+
+use crate::util::*;
+use aleph::adaptive::{AdaptiveSettings, SamplerKind, Visibility, render_adaptive};
+use aleph::integrator::Strategy;
+use aleph::render::render_uniform;
+use aleph::scene::Scene;
+use std::path::Path;
+
+/// A 2×1 plane at z = 0 facing +z, split at x = 0 into a left material `left` and a right
+/// material `right`, lit by a large one-sided quad light in front of it, seen by a camera on
+/// the axis with the plane filling the `w × h` image.
+fn split_plane(
+    dir: &Path,
+    left: &str,
+    right: &str,
+    w: u32,
+    h: u32,
+    extra: &[(&str, &[u8])],
+) -> Scene {
+    let obj = "mtllib m.mtl\n\
+        v -1 -0.5 0\nv 0 -0.5 0\nv 0 0.5 0\nv -1 0.5 0\nv 1 -0.5 0\nv 1 0.5 0\n\
+        vt 0 0\nvt 0 0\nvt 0 1\nvt 0 1\nvt 1 0\nvt 1 1\n\
+        usemtl left\nf 1/1 2/2 3/3 4/4\nusemtl right\nf 2/2 5/5 6/6 3/3\n";
+    // Texture coordinates of the right half run 0..1 in u; the left half's are unused.
+    let mtl = format!("newmtl left\n{left}\nnewmtl right\n{right}\n");
+    // The camera sees exactly the plane: height 1 at distance 2 ⇒ vfov = 2 atan(0.25).
+    let vfov = 2.0 * 0.25f64.atan().to_degrees();
+    let toml = format!(
+        "[camera]\nposition = [0, 0, 2]\nlook_at = [0, 0, 0]\nvfov_deg = {vfov}\nresolution = [{w}, {h}]\n\
+         [render]\nmax_depth = 4\n[[mesh]]\nfile = \"p.obj\"\n\
+         [[light]]\ntype = \"quad\"\ncorner = [-3, -3, 6]\nedge1 = [0, 6, 0]\nedge2 = [6, 0, 0]\nradiance = [2, 2, 2]\n"
+    );
+    write_files(
+        dir,
+        &[("p.obj", obj), ("m.mtl", &mtl), ("scene.toml", &toml)],
+    );
+    for (name, bytes) in extra {
+        std::fs::write(dir.join(name), bytes).unwrap();
+    }
+    Scene::load(&dir.join("scene.toml")).unwrap()
+}
+
+/// Mean samples per pixel over columns [x0, x1) (all rows).
+fn mean_spp(film: &aleph::film::Film, x0: u32, x1: u32) -> f64 {
+    let mut s = 0u64;
+    let mut n = 0u64;
+    for y in 0..film.height {
+        for x in x0..x1 {
+            s += film.pixel(x, y).n as u64;
+            n += 1;
+        }
+    }
+    s as f64 / n as f64
+}
+
+fn png(w: u32, h: u32, f: impl Fn(u32, u32) -> u8) -> Vec<u8> {
+    let img = image::GrayImage::from_fn(w, h, |x, y| image::Luma([f(x, y)]));
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )
+    .unwrap();
+    bytes
+}
+
+#[test]
+fn textured_half_gets_fewer_samples_than_flat_half_at_equal_luminance() {
+    // Right half: a checkerboard of linear albedo 0.1 and 0.9 in squares of 4×4 pixels (sRGB
+    // codes 89 and 243), mean 0.5; left half: flat albedo 0.5. At FLIP's 67 ppd the checker's
+    // fundamental is 8.4 cpd with contrast 0.8: it masks the bands where pixel noise is most
+    // visible (T_e ≈ 33 there), raising the noise threshold ≈ 1.7× (see the perception crate's
+    // threshold tests), so the perceptual sampler, which equalises error / threshold, needs
+    // ≈ 1.7² ≈ 3× fewer samples there.
+    let d = tempdir();
+    let (w, h) = (64u32, 64u32);
+    // 8 × 16 texels over the 32 × 64-pixel right half: 4 pixels per texel.
+    let tex = png(8, 16, |x, y| if (x + y) % 2 == 0 { 89 } else { 243 });
+    let scene = split_plane(
+        d.path(),
+        "Kd 0.5 0.5 0.5",
+        "Kd 1 1 1\nmap_Kd checker.png",
+        w,
+        h,
+        &[("checker.png", &tex)],
+    );
+    let s = AdaptiveSettings {
+        budget_spp: Some(48.0),
+        ..AdaptiveSettings::default()
+    };
+    let r = render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap();
+    let (flat, textured) = (mean_spp(&r.film, 4, 28), mean_spp(&r.film, 36, 60));
+    assert!(
+        flat > 1.3 * textured,
+        "flat half {flat:.1} spp, textured half {textured:.1} spp"
+    );
+    // The two halves have the same mean luminance (within the noise of the estimate).
+    let rgb = r.film.mean_rgb();
+    let half_mean = |x0: usize, x1: usize| {
+        let mut s = 0.0;
+        for y in 0..h as usize {
+            for x in x0..x1 {
+                s += rgb[3 * (y * w as usize + x) + 1] as f64;
+            }
+        }
+        s / ((x1 - x0) * h as usize) as f64
+    };
+    let (a, b) = (half_mean(4, 28), half_mean(36, 60));
+    assert!((a / b - 1.0).abs() < 0.1, "{a} vs {b}");
+}
+
+#[test]
+fn dark_regions_tolerate_more_relative_error() {
+    // Left half albedo 0.02, right half 0.8, judged in scene luminance calibrated so that the
+    // bright half is ≈ 100 cd/m² and the dark ≈ 2.5 cd/m². Diffuse surfaces under the same light
+    // have the same *relative* noise at equal spp; Daly's CSF peak falls from ≈ 237 at 100 cd/m²
+    // to ≈ 150 at 2.5 cd/m² (and the finer bands fall faster), so the dark half's threshold
+    // contrast is ≈ 1.5× larger (more at the finer bands) and it needs ≈ 2× fewer samples or
+    // less (the de Vries–Rose regime:
+    // thresholds grow more slowly than luminance in the dark).
+    let d = tempdir();
+    let scene = split_plane(d.path(), "Kd 0.02 0.02 0.02", "Kd 0.8 0.8 0.8", 48, 48, &[]);
+    // Radiance of the bright half ≈ ρ E / π with E ≈ 2π · 2 · (solid-angle factor) ≈ 1.1; pick
+    // the scale so it is ≈ 100 cd/m².
+    let mut scene = scene;
+    scene.settings.luminance_scale = 100.0 / 0.8 / 1.1 * 0.8;
+    // A viewer at 12 pixels per degree, so that the 1° adaptation window (σ ≈ 5 px) keeps each
+    // half adapted to itself rather than to the mixture.
+    let mut s = AdaptiveSettings {
+        budget_spp: Some(48.0),
+        visibility: Visibility::Scene,
+        ..AdaptiveSettings::default()
+    };
+    s.tone.view.ppd = 12.0;
+    let r = render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap();
+    let (dark, bright) = (mean_spp(&r.film, 2, 18), mean_spp(&r.film, 30, 46));
+    // Equal visibility needs (C_bright / C_dark)² as many samples in the dark: ≥ 2× fewer.
+    assert!(
+        bright > 1.5 * dark,
+        "dark {dark:.1} spp, bright {bright:.1} spp"
+    );
+}
+
+#[test]
+fn a_constant_pixel_stops_receiving_samples() {
+    // The camera looks straight at the black emitting quad (radiance exactly 2 in every sample,
+    // no reflection) over a flat grey background: pixels well inside the light's image have
+    // zero error and never get more than the first pass, while the rest keep sampling.
+    let d = tempdir();
+    let obj = "mtllib m.mtl\nv -2 -2 0\nv 2 -2 0\nv 2 2 0\nv -2 2 0\nusemtl grey\nf 1 2 3 4\n";
+    // Light 1 faces the camera (+z); light 2, behind the camera, faces the background.
+    let toml = "[camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\nvfov_deg = 60\nresolution = [40, 40]\n\
+        [render]\nmax_depth = 4\n[[mesh]]\nfile = \"b.obj\"\n\
+        [[light]]\ntype = \"quad\"\ncorner = [-0.4, -0.4, 1]\nedge1 = [0.8, 0, 0]\nedge2 = [0, 0.8, 0]\nradiance = [2, 2, 2]\n\
+        [[light]]\ntype = \"quad\"\ncorner = [-1, -1, 5]\nedge1 = [0, 2, 0]\nedge2 = [2, 0, 0]\nradiance = [3, 3, 3]\n";
+    write_files(
+        d.path(),
+        &[
+            ("b.obj", obj),
+            ("m.mtl", "newmtl grey\nKd 0.5 0.5 0.5\n"),
+            ("scene.toml", toml),
+        ],
+    );
+    let scene = Scene::load(&d.path().join("scene.toml")).unwrap();
+    let s = AdaptiveSettings {
+        budget_spp: Some(64.0),
+        ..AdaptiveSettings::default()
+    };
+    let r = render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap();
+    // The light spans x, y in about [13, 27]; its interior [17, 23] is at least 3 px inside.
+    for y in 17..23 {
+        for x in 17..23 {
+            let p = r.film.pixel(x, y);
+            assert_eq!(p.n, s.min_spp, "light pixel ({x}, {y}) got {} samples", p.n);
+            assert!((p.mean().x - 2.0).abs() < 1e-6);
+        }
+    }
+    // Meanwhile the budget (64 spp on average) went to the background.
+    let mut bg = (0u64, 0u64);
+    for y in 0..40 {
+        for x in 0..40 {
+            if !(11..29).contains(&x) || !(11..29).contains(&y) {
+                bg.0 += r.film.pixel(x, y).n as u64;
+                bg.1 += 1;
+            }
+        }
+    }
+    assert!(
+        bg.0 as f64 / bg.1 as f64 > 64.0,
+        "background {} spp",
+        bg.0 as f64 / bg.1 as f64
+    );
+}
+
+#[test]
+fn uniform_with_a_budget_equals_a_plain_render_bit_for_bit() {
+    let mut desc =
+        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
+    desc.camera.resolution = [24, 24];
+    let scene = Scene::load_description(desc).unwrap();
+    for n in [1u32, 5, 16] {
+        let s = AdaptiveSettings {
+            sampler: SamplerKind::Uniform,
+            budget_spp: Some(n as f64),
+            ..AdaptiveSettings::default()
+        };
+        let a = render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap().film;
+        let b = render_uniform(&scene, Strategy::Mis, n, &|_| {}).0;
+        assert!(a == b, "uniform budget {n} differs from a plain render");
+    }
+}
+
+#[test]
+fn adaptive_renders_are_identical_for_one_and_two_threads() {
+    let mut desc =
+        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
+    desc.camera.resolution = [40, 32];
+    let scene = Scene::load_description(desc).unwrap();
+    for sampler in [SamplerKind::Perceptual, SamplerKind::Variance] {
+        let s = AdaptiveSettings {
+            sampler,
+            budget_spp: Some(24.0),
+            ..AdaptiveSettings::default()
+        };
+        let run = |t: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap();
+            pool.install(|| render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap())
+        };
+        let (a, b) = (run(1), run(2));
+        assert!(a.film == b.film, "{sampler:?}: films differ");
+        assert_eq!(a.threshold, b.threshold);
+        // The budget is spent, to within the last pass's rounding.
+        assert!((a.mean_spp() - 24.0).abs() < 0.5, "{}", a.mean_spp());
+        assert!(
+            a.film.spp().iter().max() > a.film.spp().iter().min(),
+            "{sampler:?} did not adapt"
+        );
+    }
+}
+
+#[test]
+fn speedup_runs_end_to_end_on_a_tiny_scene() {
+    let d = tempdir();
+    let out = d.path().join("sp");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args([
+            "speedup",
+            "--resolution",
+            "24x24",
+            "--budgets",
+            "2,4,8",
+            "--reference-spp",
+            "64",
+            "--min-spp",
+            "2",
+            "-o",
+        ])
+        .arg(&out)
+        .arg(repo("scenes/cornell-box/scene.toml"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        table.contains("| perceptual | 8 |") && table.contains("Equal FLIP mean"),
+        "{table}"
+    );
+    let csv = std::fs::read_to_string(out.join("speedup.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 3 * 3);
+    assert!(csv.starts_with("sampler,budget_spp,mean_spp"));
+    let plot = image::open(out.join("speedup.png")).unwrap();
+    assert_eq!((plot.width(), plot.height()), (1200, 900));
+    assert!(
+        std::fs::read_to_string(out.join("speedup.svg"))
+            .unwrap()
+            .contains("<svg")
+    );
+    // The reference is cached: a second run reuses it.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args([
+            "speedup",
+            "--resolution",
+            "24x24",
+            "--budgets",
+            "2",
+            "--reference-spp",
+            "64",
+            "--min-spp",
+            "2",
+            "-o",
+        ])
+        .arg(&out)
+        .arg(repo("scenes/cornell-box/scene.toml"))
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("using cached reference"));
+}
