@@ -110,6 +110,16 @@ impl StopReason {
     }
 }
 
+/// How the perceptual sampler estimates a pixel's remaining error.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorEstimate {
+    /// |Y(A) − Y(B)| / 2 from the two half-buffers, in visibility units.
+    HalfBuffers,
+    /// The standard error of the mean sqrt(var(Y)/n) from Σ Y², mapped to visibility units by
+    /// the pixel's display gain Y_d/Y (more degrees of freedom than one half-buffer difference).
+    StandardError,
+}
+
 /// Cycles' default noise threshold.
 pub const CYCLES_DEFAULT_THRESHOLD: f32 = 0.01;
 
@@ -139,6 +149,8 @@ pub struct AdaptiveSettings {
     pub threshold: ThresholdParams,
     /// Cycles' noise threshold for the variance sampler (default 0.01).
     pub variance_threshold: f32,
+    /// Error estimate of the perceptual sampler (default: half-buffers).
+    pub error_estimate: ErrorEstimate,
     /// Samples per pixel of the albedo guide (default 4; only antialiasing needs them).
     pub guide_spp: u32,
 }
@@ -161,6 +173,7 @@ impl Default for AdaptiveSettings {
             threshold: ThresholdParams::default(),
             variance_threshold: CYCLES_DEFAULT_THRESHOLD,
             guide_spp: 4,
+            error_estimate: ErrorEstimate::HalfBuffers,
         }
     }
 }
@@ -420,13 +433,25 @@ pub fn render_adaptive(
                     });
                 }
                 let st = perceptual.as_ref().expect("set above");
-                let la = visible_luminance(&film.mean_rgb_even(), frozen.as_ref(), scene_scale)?;
-                let lb = visible_luminance(&film.mean_rgb_odd(), frozen.as_ref(), scene_scale)?;
-                let e: Vec<f32> = la
-                    .par_iter()
-                    .zip(lb.par_iter())
-                    .map(|(a, b)| 0.5 * (a - b).abs())
-                    .collect();
+                let e: Vec<f32> = match s.error_estimate {
+                    ErrorEstimate::HalfBuffers => {
+                        let la = visible_luminance(&film.mean_rgb_even(), frozen.as_ref(), scene_scale)?;
+                        let lb = visible_luminance(&film.mean_rgb_odd(), frozen.as_ref(), scene_scale)?;
+                        la.par_iter().zip(lb.par_iter()).map(|(a, b)| 0.5 * (a - b).abs()).collect()
+                    }
+                    ErrorEstimate::StandardError => film
+                        .pixels
+                        .par_iter()
+                        .zip(mean.par_chunks_exact(3))
+                        .zip(lf.par_iter())
+                        .map(|((px, rgb), &ld)| {
+                            let y = perception::photometry::luminance(rgb[0], rgb[1], rgb[2]);
+                            let gain = if y > 0.0 { ld / y } else { 0.0 };
+                            let se = if px.n >= 2 { px.lum_std_error() as f32 } else { 0.0 };
+                            gain * se
+                        })
+                        .collect(),
+                };
                 let error = box3(&e, w, h);
                 let adapt = adaptation_luminance(
                     &lf,

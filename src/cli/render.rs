@@ -2,7 +2,9 @@
 
 use super::tonemap::{OperatorArg, ToneArgs};
 use super::{parse_resolution, with_threads};
-use aleph::adaptive::{AdaptiveResult, AdaptiveSettings, SamplerKind, Visibility, render_adaptive};
+use aleph::adaptive::{
+    AdaptiveResult, AdaptiveSettings, ErrorEstimate, SamplerKind, Visibility, render_adaptive,
+};
 use aleph::display::{ToneMapSettings, tone_map};
 use aleph::output::{
     AtomicOutputs, ChannelData, auto_exposure_ev, encode_srgb8, expose, false_colour, write_exr,
@@ -45,6 +47,15 @@ impl From<SamplerArg> for SamplerKind {
             SamplerArg::Variance => SamplerKind::Variance,
         }
     }
+}
+
+/// Error estimates on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ErrorEstimateArg {
+    /// |Y(A) − Y(B)| / 2 of the even and odd half-buffers.
+    HalfBuffers,
+    /// sqrt(var(Y) / n) from the sum of squared luminance.
+    StandardError,
 }
 
 /// Where visibility is judged.
@@ -110,6 +121,12 @@ pub struct SamplingArgs {
         help_heading = "Adaptive sampling"
     )]
     pub guide_spp: u32,
+    /// Error estimate of the perceptual sampler: half-buffer difference or standard error.
+    #[arg(long, value_enum, default_value = "half-buffers", help_heading = "Adaptive sampling")]
+    pub error_estimate: ErrorEstimateArg,
+    /// Window of the local adaptation luminance for the perceptual threshold, degrees.
+    #[arg(long, value_name = "DEG", default_value_t = 1.0, help_heading = "Adaptive sampling")]
+    pub adaptation_window: f64,
     /// Pixels per degree of the viewer (default: FLIP's 0.7 m, 3840-pixel monitor at 0.7 m,
     /// 67.0 ppd).
     #[arg(long, value_name = "PPD", help_heading = "Adaptive sampling")]
@@ -156,8 +173,20 @@ impl SamplingArgs {
             }
             tone.view.ppd = ppd;
         }
+        if !(self.adaptation_window.is_finite() && self.adaptation_window > 0.0) {
+            bail!("--adaptation-window must be positive, got {}", self.adaptation_window);
+        }
+        let threshold = perception::threshold::ThresholdParams {
+            adaptation_window_deg: self.adaptation_window,
+            ..Default::default()
+        };
         Ok(AdaptiveSettings {
             sampler,
+            threshold,
+            error_estimate: match self.error_estimate {
+                ErrorEstimateArg::HalfBuffers => ErrorEstimate::HalfBuffers,
+                ErrorEstimateArg::StandardError => ErrorEstimate::StandardError,
+            },
             min_spp: self.min_spp,
             max_spp: self.max_spp,
             budget_spp: budget,
