@@ -131,9 +131,18 @@ impl Judge {
     /// # Errors
     /// From the perception models.
     pub fn score(&self, rgb: &[f32]) -> perception::Result<Scores> {
+        Ok(self.score_with_map(rgb)?.0)
+    }
+
+    /// Scores an image and returns its 5×5-filtered FLIP map too.
+    ///
+    /// # Errors
+    /// From the perception models.
+    pub fn score_with_map(&self, rgb: &[f32]) -> perception::Result<(Scores, Vec<f32>)> {
         let fmap = self.flip_map(rgb)?;
         let flip_mean = fmap.iter().map(|&v| v as f64).sum::<f64>() / fmap.len() as f64;
-        let flip_p99 = quantile(&box5(&fmap, self.width, self.height), 0.99);
+        let filtered = box5(&fmap, self.width, self.height);
+        let flip_p99 = quantile(&filtered, 0.99);
         let lum = self.frozen.display_luminance(rgb)?;
         let diff = self
             .metric
@@ -144,12 +153,15 @@ impl Judge {
             .map(|(&x, &r)| ((x - r) as f64).powi(2) / ((r as f64).powi(2) + 1e-2))
             .sum::<f64>()
             / rgb.len() as f64;
-        Ok(Scores {
-            flip_mean,
-            flip_p99,
-            visible_fraction: diff.visible_fraction,
-            relmse,
-        })
+        Ok((
+            Scores {
+                flip_mean,
+                flip_p99,
+                visible_fraction: diff.visible_fraction,
+                relmse,
+            },
+            filtered,
+        ))
     }
 
     /// The reference's own noise floor: the scores of one half-buffer against the other.
@@ -170,6 +182,81 @@ impl Judge {
         )?;
         j.score(&film.mean_rgb_odd())
     }
+}
+
+/// The best any allocation could do, from per-pixel fits of FLIP error to uniform renders
+/// (aleph DESIGN §11): with each pixel's 5×5-filtered FLIP error modelled as a_i n^−β (β from
+/// the image means of two uniform budgets, a_i from both maps), the ceiling speedups at budget
+/// `n` are, for FLIP mean, n over the budget at which the mean-optimal allocation
+/// n_i ∝ a_i^(1/(1+β)) matches uniform's mean; and for FLIP p99, n over the mean of
+/// n_i = (a_i / p99_uniform)^(1/β), the samples that bring every pixel to uniform's 99th
+/// percentile.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ceiling {
+    /// Fitted exponent β.
+    pub beta: f64,
+    /// Ceiling speedup for FLIP mean.
+    pub mean: f64,
+    /// Ceiling speedup for FLIP p99.
+    pub p99: f64,
+}
+
+/// Fits the ceiling from two uniform renders' 5×5-filtered FLIP maps (`n_lo`, `map_lo`),
+/// (`n_hi`, `map_hi`), evaluated at budget `n`.
+pub fn ceiling(n_lo: f64, map_lo: &[f32], n_hi: f64, map_hi: &[f32], n: f64) -> Option<Ceiling> {
+    let mean = |m: &[f32]| m.iter().map(|&v| v as f64).sum::<f64>() / m.len() as f64;
+    let (m_lo, m_hi) = (mean(map_lo), mean(map_hi));
+    if !(m_lo > 0.0 && m_hi > 0.0 && n_hi > n_lo) {
+        return None;
+    }
+    let beta = (m_lo / m_hi).ln() / (n_hi / n_lo).ln();
+    if !(beta > 0.01) {
+        return None;
+    }
+    let a: Vec<f64> = map_lo
+        .iter()
+        .zip(map_hi)
+        .map(|(&l, &h)| ((l as f64 * n_lo.powf(beta)) * (h as f64 * n_hi.powf(beta))).sqrt())
+        .filter(|&a| a > 0.0)
+        .collect();
+    if a.is_empty() {
+        return None;
+    }
+    let px = map_lo.len() as f64;
+    let uni: Vec<f32> = a.iter().map(|ai| (ai * n.powf(-beta)) as f32).collect();
+    // Pixels with a_i = 0 have zero error at any n: they count in the mean as zeros.
+    let mean_u = uni.iter().map(|&v| v as f64).sum::<f64>() / px;
+    let mut with_zeros = uni.clone();
+    with_zeros.resize(map_lo.len(), 0.0);
+    let p99_u = quantile(&with_zeros, 0.99);
+    let w: Vec<f64> = a.iter().map(|ai| ai.powf(1.0 / (1.0 + beta))).collect();
+    let ws: f64 = w.iter().sum();
+    let mean_opt = |budget: f64| -> f64 {
+        a.iter()
+            .zip(&w)
+            .map(|(ai, wi)| ai * (budget * px * wi / ws).powf(-beta))
+            .sum::<f64>()
+            / px
+    };
+    let (mut lo, mut hi) = (1e-3 * n, n);
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if mean_opt(mid) > mean_u {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let need = a
+        .iter()
+        .map(|ai| (ai / p99_u).powf(1.0 / beta))
+        .sum::<f64>()
+        / px;
+    Some(Ceiling {
+        beta,
+        mean: n / hi,
+        p99: n / need.max(1e-9),
+    })
 }
 
 /// Linear interpolation in log–log of the x at which a decreasing curve (x_i, y_i), x
@@ -210,6 +297,36 @@ mod tests {
         assert!((samples_for(&curve, 0.25).unwrap() - 16.0).abs() < 1e-9);
         assert!(samples_for(&curve, 0.01).is_none());
         assert!(samples_for(&curve, 2.0).is_none());
+    }
+
+    #[test]
+    fn ceiling_of_a_two_region_image() {
+        // Half the pixels have FLIP error 4 n^-0.5, half 1 n^-0.5. Uniform at n = 16: errors
+        // 1 and 0.25, mean 0.625, p99 1. Bringing every pixel to 1 needs n_i = (a_i/1)^2 = 16
+        // and 1: mean 8.5, so the p99 ceiling is 16/8.5 = 1.88. Mean-optimal: n_i ∝ a_i^(2/3),
+        // i.e. 4^(2/3) : 1 = 2.52 : 1; solving for mean 0.625 gives a budget of 14.7 (ceiling 1.09).
+        let (lo, hi) = (4.0, 64.0);
+        let map = |n: f64| -> Vec<f32> {
+            (0..1000).map(|i| if i < 500 { 4.0 * n.powf(-0.5) } else { n.powf(-0.5) } as f32).collect()
+        };
+        let c = ceiling(lo, &map(lo), hi, &map(hi), 16.0).unwrap();
+        assert!((c.beta - 0.5).abs() < 1e-9);
+        assert!((c.p99 - 16.0 / 8.5).abs() < 1e-6, "{c:?}");
+        // Mean-optimal: weights 2.52 and 1; at budget B, n = 2B·w/(w1 + w2).
+        let w1 = 4f64.powf(2.0 / 3.0);
+        let mean_at = |b: f64| {
+            0.5 * (4.0 * (2.0 * b * w1 / (w1 + 1.0)).powf(-0.5) + (2.0 * b / (w1 + 1.0)).powf(-0.5))
+        };
+        let expected = 16.0 / {
+            let (mut a, mut z) = (0.1, 16.0);
+            for _ in 0..100 {
+                let m = 0.5 * (a + z);
+                if mean_at(m) > 0.625 { a = m } else { z = m }
+            }
+            z
+        };
+        assert!((c.mean - expected).abs() < 1e-6, "{} vs {expected}", c.mean);
+        assert!(c.mean > 1.0 && c.mean < 1.2);
     }
 
     #[test]

@@ -435,9 +435,14 @@ pub fn render_adaptive(
                 let st = perceptual.as_ref().expect("set above");
                 let e: Vec<f32> = match s.error_estimate {
                     ErrorEstimate::HalfBuffers => {
-                        let la = visible_luminance(&film.mean_rgb_even(), frozen.as_ref(), scene_scale)?;
-                        let lb = visible_luminance(&film.mean_rgb_odd(), frozen.as_ref(), scene_scale)?;
-                        la.par_iter().zip(lb.par_iter()).map(|(a, b)| 0.5 * (a - b).abs()).collect()
+                        let la =
+                            visible_luminance(&film.mean_rgb_even(), frozen.as_ref(), scene_scale)?;
+                        let lb =
+                            visible_luminance(&film.mean_rgb_odd(), frozen.as_ref(), scene_scale)?;
+                        la.par_iter()
+                            .zip(lb.par_iter())
+                            .map(|(a, b)| 0.5 * (a - b).abs())
+                            .collect()
                     }
                     ErrorEstimate::StandardError => film
                         .pixels
@@ -447,7 +452,11 @@ pub fn render_adaptive(
                         .map(|((px, rgb), &ld)| {
                             let y = perception::photometry::luminance(rgb[0], rgb[1], rgb[2]);
                             let gain = if y > 0.0 { ld / y } else { 0.0 };
-                            let se = if px.n >= 2 { px.lum_std_error() as f32 } else { 0.0 };
+                            let se = if px.n >= 2 {
+                                px.lum_std_error() as f32
+                            } else {
+                                0.0
+                            };
                             gain * se
                         })
                         .collect(),

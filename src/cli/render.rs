@@ -122,10 +122,20 @@ pub struct SamplingArgs {
     )]
     pub guide_spp: u32,
     /// Error estimate of the perceptual sampler: half-buffer difference or standard error.
-    #[arg(long, value_enum, default_value = "half-buffers", help_heading = "Adaptive sampling")]
+    #[arg(
+        long,
+        value_enum,
+        default_value = "half-buffers",
+        help_heading = "Adaptive sampling"
+    )]
     pub error_estimate: ErrorEstimateArg,
     /// Window of the local adaptation luminance for the perceptual threshold, degrees.
-    #[arg(long, value_name = "DEG", default_value_t = 1.0, help_heading = "Adaptive sampling")]
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 1.0,
+        help_heading = "Adaptive sampling"
+    )]
     pub adaptation_window: f64,
     /// Pixels per degree of the viewer (default: FLIP's 0.7 m, 3840-pixel monitor at 0.7 m,
     /// 67.0 ppd).
@@ -174,7 +184,10 @@ impl SamplingArgs {
             tone.view.ppd = ppd;
         }
         if !(self.adaptation_window.is_finite() && self.adaptation_window > 0.0) {
-            bail!("--adaptation-window must be positive, got {}", self.adaptation_window);
+            bail!(
+                "--adaptation-window must be positive, got {}",
+                self.adaptation_window
+            );
         }
         let threshold = perception::threshold::ThresholdParams {
             adaptation_window_deg: self.adaptation_window,

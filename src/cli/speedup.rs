@@ -10,7 +10,7 @@ use aleph::integrator::Strategy;
 use aleph::output::{AtomicOutputs, ChannelData, write_exr, write_png};
 use aleph::render::render_uniform;
 use aleph::scene::{Scene, SceneDescription};
-use aleph::speedup::{Judge, Scores, samples_for};
+use aleph::speedup::{Ceiling, Judge, Scores, ceiling, samples_for};
 use anyhow::{Context, bail};
 use clap::Args;
 use perception::tmo::Operator;
@@ -239,6 +239,7 @@ fn sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Resu
         SamplerKind::Perceptual,
     ];
     let mut images = AtomicOutputs::new();
+    let mut uniform_maps: Vec<(f64, Vec<f32>)> = Vec::new();
     for &budget in &args.budgets {
         for sampler in samplers {
             let settings = args
@@ -248,7 +249,10 @@ fn sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Resu
             let r = render_adaptive(&scene, &settings, &|_| {}, &|_| {})?;
             let wall = t.elapsed().as_secs_f64();
             let rgb = r.film.mean_rgb();
-            let scores = judge.score(&rgb)?;
+            let (scores, fmap) = judge.score_with_map(&rgb)?;
+            if sampler == SamplerKind::Uniform {
+                uniform_maps.push((budget, fmap));
+            }
             let row = Row {
                 sampler,
                 budget,
@@ -279,7 +283,18 @@ fn sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Resu
         }
     }
     images.commit()?;
-    let report = report(&rows, &floor, args, &scene, w, h, view.ppd);
+    // The ceiling, fitted between the second-lowest and the highest uniform budgets (the lowest
+    // is the noisiest fit), at each budget of the sweep.
+    let ceilings: Vec<(f64, Ceiling)> = if uniform_maps.len() >= 3 {
+        let (lo, hi) = (&uniform_maps[1], &uniform_maps[uniform_maps.len() - 1]);
+        args.budgets
+            .iter()
+            .filter_map(|&b| ceiling(lo.0, &lo.1, hi.0, &hi.1, b).map(|c| (b, c)))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let report = report(&rows, &floor, args, &scene, w, h, view.ppd, &ceilings);
     print!("{report}");
     let mut out = AtomicOutputs::new();
     let csv = csv(&rows);
@@ -357,6 +372,7 @@ fn curve(
     c
 }
 
+#[allow(clippy::too_many_arguments)]
 fn report(
     rows: &[Row],
     floor: &Scores,
@@ -365,6 +381,7 @@ fn report(
     w: usize,
     h: usize,
     ppd: f64,
+    ceilings: &[(f64, Ceiling)],
 ) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# aleph speedup: {}", scene.path.display());
@@ -438,6 +455,21 @@ fn report(
                 ratio(ut, pt),
                 ratio(vt, pt)
             );
+        }
+    }
+    if !ceilings.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## Ceiling\n\nThe best any allocation could do with perfect knowledge of each pixel's FLIP error (per-pixel fits a·n^−β to the uniform renders, β = {:.3}):\n",
+            ceilings[0].1.beta
+        );
+        let _ = writeln!(
+            s,
+            "| budget spp | ceiling speedup, FLIP mean | ceiling speedup, FLIP p99 |"
+        );
+        let _ = writeln!(s, "|---|---|---|");
+        for (b, c) in ceilings {
+            let _ = writeln!(s, "| {b} | {:.2}× | {:.2}× |", c.mean, c.p99);
         }
     }
     let perc: Vec<&Row> = rows
