@@ -210,7 +210,7 @@ pub fn ceiling(n_lo: f64, map_lo: &[f32], n_hi: f64, map_hi: &[f32], n: f64) -> 
         return None;
     }
     let beta = (m_lo / m_hi).ln() / (n_hi / n_lo).ln();
-    if !(beta > 0.01) {
+    if beta.is_nan() || beta <= 0.01 {
         return None;
     }
     let a: Vec<f64> = map_lo

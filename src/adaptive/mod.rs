@@ -1,12 +1,12 @@
 //! Adaptive sampling: spend samples only where the remaining error is still visible.
 //!
 //! One loop serves three samplers; only the per-pixel "needs more" decision differs:
-//! - [`SamplerKind::Perceptual`]: error (half-buffer difference, in display or scene cd/m²)
+//! - perceptual ([`SamplerKind::Perceptual`]): error (half-buffer difference, in display or scene cd/m²)
 //!   against the threshold map ΔL_T of the `perception` crate (Ramasubramanian et al. 1999; Yee
 //!   et al. 2001);
-//! - [`SamplerKind::Variance`]: Blender Cycles' noise-threshold criterion (after Dammertz et al.
+//! - variance ([`SamplerKind::Variance`]): Blender Cycles' noise-threshold criterion (after Dammertz et al.
 //!   2010), the production baseline;
-//! - [`SamplerKind::Uniform`]: the same budget spread evenly.
+//! - uniform ([`SamplerKind::Uniform`]): the same budget spread evenly.
 //!
 //! # The loop (aleph DESIGN §8)
 //! 1. A uniform pass of `min_spp` samples.

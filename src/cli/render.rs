@@ -213,7 +213,6 @@ impl SamplingArgs {
             tone,
             variance_threshold: self.noise_threshold,
             guide_spp: self.guide_spp,
-            ..AdaptiveSettings::default()
         })
     }
 }

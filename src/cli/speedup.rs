@@ -506,11 +506,13 @@ where
 {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let panels = root.split_evenly((2, 2));
-    let metrics: [(&str, fn(&Row) -> f64, f64); 2] = [
+    type Metric<'a> = (&'a str, fn(&Row) -> f64, f64);
+    let metrics: [Metric; 2] = [
         ("FLIP mean", |r| r.scores.flip_mean, floor.flip_mean),
         ("FLIP p99 (5×5)", |r| r.scores.flip_p99, floor.flip_p99),
     ];
-    let axes: [(&str, fn(&Row) -> f64); 2] = [
+    type Axis<'a> = (&'a str, fn(&Row) -> f64);
+    let axes: [Axis; 2] = [
         ("samples per pixel", |r| r.mean_spp),
         ("wall time (s)", |r| r.wall_s),
     ];
@@ -541,6 +543,16 @@ where
             .configure_mesh()
             .x_desc(xname)
             .y_desc(mname)
+            .x_label_formatter(&|v| {
+                if *v >= 10.0 {
+                    format!("{v:.0}")
+                } else {
+                    format!("{v:.1}")
+                }
+            })
+            .y_label_formatter(&|v| format!("{v:.2}"))
+            .light_line_style(BLACK.mix(0.04))
+            .bold_line_style(BLACK.mix(0.15))
             .label_style(("sans-serif", 13))
             .draw()
             .map_err(|e| e.to_string())?;

@@ -173,7 +173,7 @@ fn noise_threshold_rises_in_the_dark_and_under_masking_in_its_own_bands() {
     let checker = |sq: usize| -> Vec<f32> {
         (0..w * h)
             .map(|i| {
-                if ((i % w) / sq + (i / w) / sq) % 2 == 0 {
+                if ((i % w) / sq + (i / w) / sq).is_multiple_of(2) {
                     20.0
                 } else {
                     180.0
