@@ -13,6 +13,7 @@
 //! - [`threshold`]: the threshold map ΔL_T(x) (Ramasubramanian et al. 1999, Yee et al. 2001).
 //! - [`tmo`]: tone reproduction (TR, FPSG, WRP, PTYG with time-dependent adaptation, Reinhard,
 //!   exposure).
+//! - [`saliency`]: Itti–Koch–Niebur saliency and the saliency-weighted threshold (Yee's Aleph map).
 //! - [`metric`]: the visible-difference metric (pdiff-like, reference-only masking).
 //! - [`fft`]: planned 2-D real FFTs.
 //!
@@ -32,6 +33,7 @@ pub mod error;
 pub mod fft;
 pub mod metric;
 pub mod photometry;
+pub mod saliency;
 mod table;
 pub mod threshold;
 pub mod tmo;

@@ -149,6 +149,10 @@ pub struct AdaptiveSettings {
     pub threshold: ThresholdParams,
     /// Cycles' noise threshold for the variance sampler (default 0.01).
     pub variance_threshold: f32,
+    /// Weight ω of visual saliency in the perceptual threshold (Yee et al. 2001's Aleph map,
+    /// ΔL / (1 + ω S) with S the Itti–Koch–Niebur saliency of the first pass's display image);
+    /// 0 (default) turns it off.
+    pub saliency_weight: f32,
     /// Error estimate of the perceptual sampler (default: half-buffers).
     pub error_estimate: ErrorEstimate,
     /// Samples per pixel of the albedo guide (default 4; only antialiasing needs them).
@@ -174,6 +178,7 @@ impl Default for AdaptiveSettings {
             variance_threshold: CYCLES_DEFAULT_THRESHOLD,
             guide_spp: 4,
             error_estimate: ErrorEstimate::HalfBuffers,
+            saliency_weight: 0.0,
         }
     }
 }
@@ -285,6 +290,8 @@ impl Judgement {
 struct PerceptualState {
     /// Threshold RMS contrast of pixel noise, from the guide.
     noise_contrast: Vec<f32>,
+    /// Saliency in [0, 1] of the first pass's display image, when ω > 0.
+    saliency: Option<Vec<f32>>,
 }
 
 /// Luminance in visibility units of linear RGB under a frozen display map or the scene scale.
@@ -428,8 +435,18 @@ pub fn render_adaptive(
                     };
                     let g_lum: Vec<f32> = a_lum.iter().map(|&v| v * k).collect();
                     let map = mapper.as_ref().expect("perceptual").compute(&g_lum, None)?;
+                    let saliency = if s.saliency_weight > 0.0 {
+                        let display = match &frozen {
+                            Some(f) => f.map(&mean)?,
+                            None => mean.clone(),
+                        };
+                        Some(perception::saliency::saliency_map(&display, w, h)?)
+                    } else {
+                        None
+                    };
                     perceptual = Some(PerceptualState {
                         noise_contrast: map.noise_contrast,
+                        saliency,
                     });
                 }
                 let st = perceptual.as_ref().expect("set above");
@@ -470,11 +487,15 @@ pub fn render_adaptive(
                     AdaptationMode::LocalArithmetic,
                     s.threshold.adaptation_window_deg,
                 )?;
-                let threshold = adapt
+                let mut threshold: Vec<f32> = adapt
                     .par_iter()
                     .zip(st.noise_contrast.par_iter())
                     .map(|(&a, &c)| a * c)
                     .collect();
+                if let Some(sal) = &st.saliency {
+                    threshold =
+                        perception::saliency::aleph_map(&threshold, sal, s.saliency_weight)?;
+                }
                 Judgement { error, threshold }
             }
             SamplerKind::Variance => {

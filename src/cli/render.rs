@@ -129,6 +129,15 @@ pub struct SamplingArgs {
         help_heading = "Adaptive sampling"
     )]
     pub error_estimate: ErrorEstimateArg,
+    /// Saliency weight ω: salient regions (Itti–Koch–Niebur) get thresholds ΔL/(1 + ω S),
+    /// Yee et al.'s Aleph map. 0 turns it off.
+    #[arg(
+        long,
+        value_name = "W",
+        default_value_t = 0.0,
+        help_heading = "Adaptive sampling"
+    )]
+    pub saliency: f32,
     /// Window of the local adaptation luminance for the perceptual threshold, degrees.
     #[arg(
         long,
@@ -193,9 +202,13 @@ impl SamplingArgs {
             adaptation_window_deg: self.adaptation_window,
             ..Default::default()
         };
+        if !(self.saliency.is_finite() && self.saliency >= 0.0) {
+            bail!("--saliency must be ≥ 0, got {}", self.saliency);
+        }
         Ok(AdaptiveSettings {
             sampler,
             threshold,
+            saliency_weight: self.saliency,
             error_estimate: match self.error_estimate {
                 ErrorEstimateArg::HalfBuffers => ErrorEstimate::HalfBuffers,
                 ErrorEstimateArg::StandardError => ErrorEstimate::StandardError,
