@@ -4,7 +4,7 @@
 
 use perception::adaptation::{AdaptationMode, adaptation_luminance};
 use perception::photometry::luminance_image;
-use perception::tmo::{Display, Operator, apply};
+use perception::tmo::{Display, Operator};
 use perception::viewing::ViewingConditions;
 use plotters::prelude::*;
 use std::sync::Once;
@@ -55,15 +55,16 @@ pub fn tone_map(
             range: "a positive number",
         });
     }
-    let rgb_cd: Vec<f32> = rgb.iter().map(|&v| v * s.luminance_scale).collect();
-    let lum = luminance_image(&rgb_cd, 1.0);
-    let mode = if s.operator == Operator::Wrp {
-        AdaptationMode::LocalArithmetic
-    } else {
-        s.adaptation
-    };
-    let adapt = adaptation_luminance(&lum, width, height, &s.view, mode, 1.0)?;
-    apply(s.operator, &rgb_cd, width, height, &adapt, &s.display)
+    perception::PerceptionError::check_rgb(rgb, width, height)?;
+    if rgb.iter().all(|&v| v == 0.0) {
+        return Err(perception::PerceptionError::Parameter {
+            name: "image luminance",
+            value: 0.0,
+            range: "not all black (nothing to tone map)",
+        });
+    }
+    // The curve frozen from the image itself is the operator's own curve for that image.
+    FrozenToneMap::new(rgb, width, height, s)?.map(rgb)
 }
 
 /// A tone mapping whose image-dependent parts — the adaptation map, exposure scale, Reinhard's
@@ -158,7 +159,7 @@ impl FrozenToneMap {
             .map(&rgb_cd),
             op => {
                 // These operators depend on the image only through the adaptation map.
-                let mut out = apply(op, &rgb_cd, w, h, &self.adaptation, display);
+                let mut out = perception::tmo::apply(op, &rgb_cd, w, h, &self.adaptation, display);
                 if matches!(
                     &out,
                     Err(perception::PerceptionError::Parameter {

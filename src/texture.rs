@@ -18,15 +18,7 @@ pub struct Texture {
     mean: Vec3,
 }
 
-/// sRGB EOTF: encoded value in [0,1] to linear (IEC 61966-2-1).
-#[inline]
-pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
+pub use perception::photometry::srgb_to_linear;
 
 impl Texture {
     /// Loads an image file through the `image` crate.

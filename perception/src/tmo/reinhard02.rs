@@ -51,13 +51,9 @@ impl Reinhard02 {
             .chunks_exact(3)
             .map(|p| luminance(p[0], p[1], p[2]))
             .collect();
-        let lbar = self
-            .log_average
-            .unwrap_or_else(|| log_average(&lum) as f64)
-            .max(1e-9);
+        let (lbar, white) = self.parameters(rgb_cd_m2);
         let scale = self.key / lbar;
-        let lmax = lum.iter().fold(0f32, |a, &b| a.max(b)) as f64 * scale;
-        let white2 = self.white.unwrap_or(lmax).max(1e-9).powi(2);
+        let white2 = white.max(1e-9).powi(2);
         rgb_cd_m2
             .par_chunks_exact(3)
             .zip(lum.par_iter())
