@@ -87,6 +87,23 @@ impl AtomicOutputs {
         Ok(())
     }
 
+    /// Stages `dest` with the given contents (text reports, CSV, SVG).
+    ///
+    /// # Errors
+    /// As [`AtomicOutputs::stage`].
+    pub fn stage_bytes(
+        &mut self,
+        dest: &Path,
+        bytes: &[u8],
+    ) -> std::result::Result<(), OutputError> {
+        self.stage(dest, |w| {
+            w.write_all(bytes).map_err(|source| OutputError::Io {
+                path: dest.to_path_buf(),
+                source,
+            })
+        })
+    }
+
     /// Renames every staged file into place.
     ///
     /// # Errors

@@ -292,23 +292,16 @@ fn adaptive_renders_are_identical_for_one_and_two_threads() {
 fn speedup_runs_end_to_end_on_a_tiny_scene() {
     let d = tempdir();
     let out = d.path().join("sp");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
-        .args([
-            "speedup",
-            "--resolution",
-            "24x24",
-            "--budgets",
-            "2,4,8",
-            "--reference-spp",
-            "64",
-            "--min-spp",
-            "2",
-            "-o",
-        ])
-        .arg(&out)
-        .arg(repo("scenes/cornell-box/scene.toml"))
-        .output()
-        .unwrap();
+    let speedup = |budgets: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+            .args(["speedup", "--resolution", "24x24", "--budgets", budgets])
+            .args(["--reference-spp", "64", "--min-spp", "2", "-o"])
+            .arg(&out)
+            .arg(repo("scenes/cornell-box/scene.toml"))
+            .output()
+            .unwrap()
+    };
+    let o = speedup("2,4,8");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let table = String::from_utf8_lossy(&o.stdout);
     assert!(
@@ -326,23 +319,7 @@ fn speedup_runs_end_to_end_on_a_tiny_scene() {
             .contains("<svg")
     );
     // The reference is cached: a second run reuses it.
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
-        .args([
-            "speedup",
-            "--resolution",
-            "24x24",
-            "--budgets",
-            "2",
-            "--reference-spp",
-            "64",
-            "--min-spp",
-            "2",
-            "-o",
-        ])
-        .arg(&out)
-        .arg(repo("scenes/cornell-box/scene.toml"))
-        .output()
-        .unwrap();
+    let o = speedup("2");
     assert!(o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("using cached reference"));
 }

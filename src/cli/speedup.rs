@@ -297,38 +297,15 @@ fn sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Resu
     let report = report(&rows, &floor, args, &scene, w, h, view.ppd, &ceilings);
     print!("{report}");
     let mut out = AtomicOutputs::new();
-    let csv = csv(&rows);
-    let csv_path = dir.join("speedup.csv");
-    out.stage(&csv_path, |wr| {
-        use std::io::Write;
-        wr.write_all(csv.as_bytes())
-            .map_err(|source| aleph::output::OutputError::Io {
-                path: csv_path.clone(),
-                source,
-            })
-    })?;
-    let md_path = dir.join("speedup.md");
-    out.stage(&md_path, |wr| {
-        use std::io::Write;
-        wr.write_all(report.as_bytes())
-            .map_err(|source| aleph::output::OutputError::Io {
-                path: md_path.clone(),
-                source,
-            })
-    })?;
+    out.stage_bytes(&dir.join("speedup.csv"), csv(&rows).as_bytes())?;
+    out.stage_bytes(&dir.join("speedup.md"), report.as_bytes())?;
     let (png, pw, ph) = plot_png(&rows, &floor)?;
     let plot_path = dir.join("speedup.png");
     out.stage(&plot_path, |wr| write_png(wr, &plot_path, pw, ph, &png))?;
-    let svg = plot_svg(&rows, &floor)?;
-    let svg_path = dir.join("speedup.svg");
-    out.stage(&svg_path, |wr| {
-        use std::io::Write;
-        wr.write_all(svg.as_bytes())
-            .map_err(|source| aleph::output::OutputError::Io {
-                path: svg_path.clone(),
-                source,
-            })
-    })?;
+    out.stage_bytes(
+        &dir.join("speedup.svg"),
+        plot_svg(&rows, &floor)?.as_bytes(),
+    )?;
     out.commit()?;
     eprintln!("wrote {}", dir.display());
     Ok(ExitCode::SUCCESS)
