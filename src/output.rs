@@ -182,14 +182,66 @@ pub fn write_exr(
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
     // Single-threaded so that block order, and hence the file's bytes, never depend on scheduling.
+    let mut bytes = std::io::Cursor::new(Vec::new());
     Image::from_layer(layer)
         .write()
         .non_parallel()
-        .to_buffered(w)
+        .to_buffered(&mut bytes)
         .map_err(|e| OutputError::Encode {
             path: dest.to_path_buf(),
             message: e.to_string(),
-        })
+        })?;
+    let mut bytes = bytes.into_inner();
+    sort_exr_header_attributes(&mut bytes);
+    w.write_all(&bytes).map_err(|source| OutputError::Io {
+        path: dest.to_path_buf(),
+        source,
+    })
+}
+
+/// Sorts the attributes of a single-part EXR header by name, in place, so that the same image
+/// always gives the same bytes (the exr crate keeps custom attributes in a `HashMap` and writes
+/// them in its random iteration order). The header's length is unchanged, so the chunk offset
+/// table that follows stays valid. A buffer that does not parse as a single-part header
+/// (magic, version, then `name\0type\0size value` records up to a null byte) is left alone.
+fn sort_exr_header_attributes(bytes: &mut [u8]) {
+    const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+    if bytes.len() < 9 || bytes[..4] != MAGIC || bytes[5] & 0x10 != 0 {
+        return; // not EXR, or multi-part
+    }
+    let cstr_end = |from: usize| bytes[from..].iter().position(|&b| b == 0).map(|k| from + k);
+    let mut records: Vec<(usize, usize)> = Vec::new();
+    let mut pos = 8;
+    loop {
+        if pos >= bytes.len() {
+            return;
+        }
+        if bytes[pos] == 0 {
+            break;
+        }
+        let Some(name_end) = cstr_end(pos) else {
+            return;
+        };
+        let Some(type_end) = cstr_end(name_end + 1) else {
+            return;
+        };
+        let size_at = type_end + 1;
+        let Some(size) = bytes.get(size_at..size_at + 4) else {
+            return;
+        };
+        let size = i32::from_le_bytes([size[0], size[1], size[2], size[3]]);
+        let end = size_at + 4 + size.max(0) as usize;
+        if size < 0 || end > bytes.len() {
+            return;
+        }
+        records.push((pos, end));
+        pos = end;
+    }
+    let start = 8;
+    let mut sorted: Vec<&[u8]> = records.iter().map(|&(a, b)| &bytes[a..b]).collect();
+    sorted.sort_by_key(|r| r.split(|&b| b == 0).next().unwrap_or(&[]).to_vec());
+    let header: Vec<u8> = sorted.concat();
+    bytes[start..pos].copy_from_slice(&header);
 }
 
 /// Encodes 8-bit RGB display values (row-major, 3 per pixel) as PNG.
@@ -275,4 +327,47 @@ pub fn false_colour(values: &[f32], lo: f32, hi: f32) -> Vec<u8> {
             [lut[3 * i], lut[3 * i + 1], lut[3 * i + 2]]
         })
         .collect()
+}
+
+#[cfg(test)]
+mod exr_bytes_tests {
+    use super::*;
+
+    fn encode(attrs: &[(String, String)]) -> Vec<u8> {
+        let tmp = tempfile::tempfile().unwrap();
+        {
+            let mut w = BufWriter::new(&tmp);
+            let rgb = vec![0.5f32; 3 * 4 * 2];
+            write_exr(&mut w, Path::new("x.exr"), 4, 2, &rgb, &[], attrs).unwrap();
+            w.flush().unwrap();
+        }
+        let mut f = tmp;
+        use std::io::{Read, Seek};
+        f.rewind().unwrap();
+        let mut v = Vec::new();
+        f.read_to_end(&mut v).unwrap();
+        v
+    }
+
+    #[test]
+    fn exr_bytes_do_not_depend_on_hash_map_order() {
+        let attrs: Vec<(String, String)> = (0..12)
+            .map(|i| (format!("attr{i}"), format!("value {i}")))
+            .collect();
+        let first = encode(&attrs);
+        // Fresh hash maps get fresh random keys: any order dependence would show within a few.
+        for _ in 0..8 {
+            assert_eq!(encode(&attrs), first);
+        }
+        // And the sorted header still reads back, with every attribute.
+        let image = exr::image::read::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_buffered(std::io::Cursor::new(&first))
+            .unwrap();
+        assert_eq!(image.layer_data[0].attributes.other.len(), 12);
+    }
 }

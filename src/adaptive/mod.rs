@@ -43,14 +43,17 @@
 //! the image and the sample-count map are too — except with a time budget, whose stopping pass
 //! depends on speed.
 
-use crate::display::{FrozenToneMap, ToneMapSettings};
+mod allocate;
+mod criterion;
+
+use crate::display::ToneMapSettings;
 use crate::film::Film;
 use crate::integrator::{Integrator, Strategy};
-use crate::render::{RenderStats, render_albedo, render_counts};
+use crate::render::{RenderStats, render_counts};
 use crate::scene::Scene;
-use perception::adaptation::{AdaptationMode, adaptation_luminance, log_average};
-use perception::photometry::luminance_image;
-use perception::threshold::{ThresholdMapper, ThresholdParams};
+use allocate::{allocate, fit_to_budget};
+use criterion::{Criterion, PerceptualCriterion, VarianceCriterion};
+use perception::threshold::ThresholdParams;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -230,79 +233,32 @@ impl AdaptiveResult {
     }
 }
 
-/// 3×3 box mean with clamped edges.
-fn box3(v: &[f32], w: usize, h: usize) -> Vec<f32> {
-    (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = ((i % w) as i64, (i / w) as i64);
-            let mut s = 0.0;
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let xx = (x + dx).clamp(0, w as i64 - 1) as usize;
-                    let yy = (y + dy).clamp(0, h as i64 - 1) as usize;
-                    s += v[yy * w + xx];
-                }
-            }
-            s / 9.0
-        })
-        .collect()
+/// The mutable state of the loop between passes.
+struct LoopState {
+    film: Film,
+    stats: RenderStats,
+    passes: Vec<PassReport>,
+    /// Target ratio: 1 until the converged fraction is reached under a budget, then halved.
+    t_level: f32,
+    decision_time: Duration,
 }
 
-/// 3×3 dilation of a mask.
-fn dilate3(m: &[bool], w: usize, h: usize) -> Vec<bool> {
-    (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = ((i % w) as i64, (i / w) as i64);
-            (-1..=1).any(|dy| {
-                (-1..=1).any(|dx| {
-                    let xx = x + dx;
-                    let yy = y + dy;
-                    xx >= 0
-                        && yy >= 0
-                        && xx < w as i64
-                        && yy < h as i64
-                        && m[yy as usize * w + xx as usize]
-                })
-            })
-        })
-        .collect()
-}
-
-/// Per-pixel error and threshold of the current film.
-struct Judgement {
-    error: Vec<f32>,
-    threshold: Vec<f32>,
-}
-
-impl Judgement {
-    fn ratio(&self) -> Vec<f32> {
-        self.error
-            .par_iter()
-            .zip(self.threshold.par_iter())
-            .map(|(e, t)| e / t.max(1e-30))
-            .collect()
-    }
-}
-
-/// The state the perceptual criterion keeps between passes.
-struct PerceptualState {
-    /// Threshold RMS contrast of pixel noise, from the guide.
-    noise_contrast: Vec<f32>,
-    /// Saliency in [0, 1] of the first pass's display image, when ω > 0.
-    saliency: Option<Vec<f32>>,
-}
-
-/// Luminance in visibility units of linear RGB under a frozen display map or the scene scale.
-fn visible_luminance(
-    rgb: &[f32],
-    frozen: Option<&FrozenToneMap>,
-    scale: f32,
-) -> perception::Result<Vec<f32>> {
-    match frozen {
-        Some(f) => f.display_luminance(rgb),
-        None => Ok(luminance_image(rgb, scale)),
+impl LoopState {
+    /// Records a pass's report (and calls `progress`); returns the fraction converged.
+    fn report(&mut self, ratio: &[f32], progress: &(dyn Fn(&PassReport) + Sync)) -> f64 {
+        let n_px = self.film.len();
+        let taken = self.film.total_samples();
+        let prev: u64 = self.passes.iter().map(|p| p.samples).sum();
+        let converged = ratio.par_iter().filter(|&&r| r <= 1.0).count() as f64 / n_px as f64;
+        let report = PassReport {
+            pass: self.passes.len(),
+            mean_spp: taken as f64 / n_px as f64,
+            converged_fraction: converged,
+            samples: taken - prev,
+        };
+        progress(&report);
+        self.passes.push(report);
+        converged
     }
 }
 
@@ -318,270 +274,54 @@ pub fn render_adaptive(
     sample_progress: &(dyn Fn(u64) + Sync),
 ) -> perception::Result<AdaptiveResult> {
     let start = Instant::now();
-    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    let n_px = w * h;
     let integrator = Integrator {
         max_depth: scene.settings.max_depth,
         strategy: Strategy::Mis,
     };
-    let mut film = Film::new(w as u32, h as u32);
-    let mut stats = RenderStats::default();
-    let mut passes = Vec::new();
-    let budget_total = s.budget_spp.map(|b| (b * n_px as f64).round() as u64);
-    let mut decision_time = Duration::ZERO;
-
-    // Uniform: one pass of the whole budget (bit-identical to a plain render of that spp).
+    let mut st = LoopState {
+        film: Film::new(scene.camera.width, scene.camera.height),
+        stats: RenderStats::default(),
+        passes: Vec::new(),
+        t_level: 1.0,
+        decision_time: Duration::ZERO,
+    };
     if s.sampler == SamplerKind::Uniform {
-        let spp = match s.budget_spp {
-            Some(b) => b.round().max(1.0) as u32,
-            None => s.uniform_spp,
-        }
-        .min(s.max_spp);
-        let counts = vec![spp; n_px];
-        stats += render_counts(scene, &integrator, &mut film, &counts, sample_progress);
-        passes.push(PassReport {
-            pass: 0,
-            mean_spp: spp as f64,
-            converged_fraction: 1.0,
-            samples: stats.samples,
-        });
-        progress(&passes[0]);
-        return Ok(AdaptiveResult {
-            film,
-            stats,
-            guide_stats: None,
-            passes,
-            stop: if s.budget_spp.is_some() {
-                StopReason::Budget
-            } else {
-                StopReason::MaxSpp
-            },
-            converged_fraction: 1.0,
-            threshold: None,
-            error: None,
-            units: "",
-            decision_time,
-            wall: start.elapsed(),
-        });
+        return Ok(render_uniform_budget(
+            scene,
+            s,
+            st,
+            progress,
+            sample_progress,
+            start,
+        ));
     }
-
-    // First pass.
+    let n_px = st.film.len();
+    let budget_total = s.budget_spp.map(|b| (b * n_px as f64).round() as u64);
     let min_spp = match budget_total {
         Some(b) => s.min_spp.min((b / n_px as u64).max(1) as u32),
         None => s.min_spp,
     }
     .clamp(1, s.max_spp);
-    stats += render_counts(
-        scene,
-        &integrator,
-        &mut film,
-        &vec![min_spp; n_px],
-        sample_progress,
-    );
-
-    // Guide and threshold elevation (perceptual).
-    let mut guide_stats = None;
-    let mut perceptual: Option<PerceptualState> = None;
-    let mapper = if s.sampler == SamplerKind::Perceptual {
-        Some(ThresholdMapper::new(w, h, s.tone.view, s.threshold)?)
-    } else {
-        None
+    let first = vec![min_spp; n_px];
+    st.stats += render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
+    let mut criterion = match s.sampler {
+        SamplerKind::Perceptual => {
+            Criterion::Perceptual(Box::new(PerceptualCriterion::new(scene, s, None)?))
+        }
+        _ => Criterion::Variance(VarianceCriterion::new(&st.film, s.variance_threshold)),
     };
-    let scene_scale = scene.settings.luminance_scale;
-    // Cycles' film exposure: the auto exposure of the first pass.
-    let cycles_exposure = {
-        let lum = luminance_image(&film.mean_rgb(), 1.0);
-        0.18 / log_average(&lum).max(1e-9)
-    };
-
-    let mut t_level = 1.0f32;
-    let mut pass = 0usize;
-    let mut prev_taken = 0u64;
-    let mut guide_time = Duration::ZERO;
-    let (last, stop) = loop {
-        let taken = film.total_samples();
-        // Judge the current film.
+    let (judgement, stop) = loop {
         let t0 = Instant::now();
-        let mean = film.mean_rgb();
-        let judgement = match s.sampler {
-            SamplerKind::Perceptual => {
-                let frozen = match s.visibility {
-                    Visibility::Display => Some(FrozenToneMap::new(&mean, w, h, &s.tone)?),
-                    Visibility::Scene => None,
-                };
-                let lf = visible_luminance(&mean, frozen.as_ref(), scene_scale)?;
-                if perceptual.is_none() {
-                    let t_guide = Instant::now();
-                    let albedo = render_albedo(
-                        scene,
-                        s.guide_spp.max(1),
-                        scene.settings.seed ^ 0x6A09_E667_F3BC_C908,
-                    );
-                    guide_time = t_guide.elapsed();
-                    guide_stats = Some(RenderStats {
-                        samples: (s.guide_spp.max(1) as u64) * n_px as u64,
-                        rays: (s.guide_spp.max(1) as u64) * n_px as u64,
-                        nonfinite: 0,
-                        wall: guide_time,
-                    });
-                    // The albedo's contrast structure at the current image's luminance level.
-                    let a_lum = luminance_image(&albedo, 1.0);
-                    let mean_a = a_lum.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
-                    let mean_f = lf.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
-                    let k = if mean_a > 0.0 {
-                        (mean_f / mean_a) as f32
-                    } else {
-                        1.0
-                    };
-                    let g_lum: Vec<f32> = a_lum.iter().map(|&v| v * k).collect();
-                    let map = mapper.as_ref().expect("perceptual").compute(&g_lum, None)?;
-                    let saliency = if s.saliency_weight > 0.0 {
-                        let display = match &frozen {
-                            Some(f) => f.map(&mean)?,
-                            None => mean.clone(),
-                        };
-                        Some(perception::saliency::saliency_map(&display, w, h)?)
-                    } else {
-                        None
-                    };
-                    perceptual = Some(PerceptualState {
-                        noise_contrast: map.noise_contrast,
-                        saliency,
-                    });
-                }
-                let st = perceptual.as_ref().expect("set above");
-                let e: Vec<f32> = match s.error_estimate {
-                    ErrorEstimate::HalfBuffers => {
-                        let la =
-                            visible_luminance(&film.mean_rgb_even(), frozen.as_ref(), scene_scale)?;
-                        let lb =
-                            visible_luminance(&film.mean_rgb_odd(), frozen.as_ref(), scene_scale)?;
-                        la.par_iter()
-                            .zip(lb.par_iter())
-                            .map(|(a, b)| 0.5 * (a - b).abs())
-                            .collect()
-                    }
-                    ErrorEstimate::StandardError => film
-                        .pixels
-                        .par_iter()
-                        .zip(mean.par_chunks_exact(3))
-                        .zip(lf.par_iter())
-                        .map(|((px, rgb), &ld)| {
-                            let y = perception::photometry::luminance(rgb[0], rgb[1], rgb[2]);
-                            let gain = if y > 0.0 { ld / y } else { 0.0 };
-                            let se = if px.n >= 2 {
-                                px.lum_std_error() as f32
-                            } else {
-                                0.0
-                            };
-                            gain * se
-                        })
-                        .collect(),
-                };
-                let error = box3(&e, w, h);
-                let adapt = adaptation_luminance(
-                    &lf,
-                    w,
-                    h,
-                    &s.tone.view,
-                    AdaptationMode::LocalArithmetic,
-                    s.threshold.adaptation_window_deg,
-                )?;
-                let mut threshold: Vec<f32> = adapt
-                    .par_iter()
-                    .zip(st.noise_contrast.par_iter())
-                    .map(|(&a, &c)| a * c)
-                    .collect();
-                if let Some(sal) = &st.saliency {
-                    threshold =
-                        perception::saliency::aleph_map(&threshold, sal, s.saliency_weight)?;
-                }
-                Judgement { error, threshold }
-            }
-            SamplerKind::Variance => {
-                let even = film.mean_rgb_even();
-                let k = cycles_exposure;
-                let error: Vec<f32> = mean
-                    .par_chunks_exact(3)
-                    .zip(even.par_chunks_exact(3))
-                    .map(|(f, a)| {
-                        let diff =
-                            ((f[0] - a[0]).abs() + (f[1] - a[1]).abs() + (f[2] - a[2]).abs()) * k;
-                        let i = (f[0] + f[1] + f[2]) * k;
-                        let norm = if i < 1.0 { i.max(0.0).sqrt() } else { i };
-                        diff / (1e-4 + norm)
-                    })
-                    .collect();
-                Judgement {
-                    error,
-                    threshold: vec![s.variance_threshold; n_px],
-                }
-            }
-            SamplerKind::Uniform => unreachable!("handled above"),
-        };
-        // The guide's render time is rendering, not a decision cost.
-        decision_time += t0.elapsed().saturating_sub(std::mem::take(&mut guide_time));
+        let (judgement, guide_time) = criterion.judge(scene, &st.film, s)?;
+        st.decision_time += t0.elapsed().saturating_sub(guide_time);
         let ratio = judgement.ratio();
-        let converged = ratio.par_iter().filter(|&&r| r <= 1.0).count() as f64 / n_px as f64;
-        let report = PassReport {
-            pass,
-            mean_spp: taken as f64 / n_px as f64,
-            converged_fraction: converged,
-            samples: taken - prev_taken,
-        };
-        prev_taken = taken;
-        progress(&report);
-        passes.push(report);
-
-        // Stop?
-        if let Some(limit) = s.time_budget
-            && start.elapsed() >= limit
-        {
-            break (judgement, StopReason::Time);
+        let converged = st.report(&ratio, progress);
+        let remaining = budget_total.map(|b| b.saturating_sub(st.film.total_samples()));
+        if let Some(reason) = stop_before_pass(s, &mut st, &ratio, converged, remaining, start) {
+            break (judgement, reason);
         }
-        let remaining = budget_total.map(|b| b.saturating_sub(taken));
-        if remaining == Some(0) || remaining.is_some_and(|r| (r as f64) < 0.002 * n_px as f64) {
-            break (judgement, StopReason::Budget);
-        }
-        if converged >= s.converged_fraction {
-            if budget_total.is_none() {
-                break (judgement, StopReason::Converged);
-            }
-            // With a budget, tighten and keep refining where the ratio is largest.
-            while ratio.par_iter().filter(|&&r| r <= t_level).count() as f64 / n_px as f64
-                >= s.converged_fraction
-                && t_level > 1e-4
-            {
-                t_level *= 0.5;
-            }
-        }
-
-        // Allocate the next pass.
-        let active: Vec<bool> = ratio.par_iter().map(|&r| r > t_level).collect();
-        let reopen = dilate3(&active, w, h);
-        let mut want: Vec<u32> = film
-            .pixels
-            .par_iter()
-            .zip(ratio.par_iter())
-            .zip(active.par_iter().zip(reopen.par_iter()))
-            .map(|((px, &r), (&act, &reo))| {
-                let n = px.n;
-                if !reo || n >= s.max_spp {
-                    return 0;
-                }
-                let nf = n as f32;
-                let mut c = if act {
-                    let q = (r / t_level).min(1e3);
-                    (nf * (q * q - 1.0)).ceil()
-                } else {
-                    0.0
-                };
-                c = c.max((nf / 4.0).ceil()).max(1.0).min(nf.max(1.0));
-                (c as u32).min(s.max_spp - n)
-            })
-            .collect();
-        let total_want: u64 = want.iter().map(|&c| c as u64).sum();
-        if total_want == 0 {
+        let mut alloc = allocate(&st.film, &ratio, st.t_level, s.max_spp);
+        if alloc.total() == 0 {
             let reason = if converged >= s.converged_fraction {
                 StopReason::Converged
             } else {
@@ -589,53 +329,118 @@ pub fn render_adaptive(
             };
             break (judgement, reason);
         }
-        if let Some(rem) = remaining
-            && total_want > rem
-        {
-            // Scale down to the remaining budget; deterministic rounding down, then hand the
-            // leftover samples out one each in pixel order of decreasing ratio.
-            let f = rem as f64 / total_want as f64;
-            for c in want.iter_mut() {
-                *c = (*c as f64 * f).floor() as u32;
-            }
-            let mut left = rem - want.iter().map(|&c| c as u64).sum::<u64>();
-            if left > 0 {
-                let mut order: Vec<usize> = (0..n_px)
-                    .filter(|&i| reopen[i] && film.pixels[i].n < s.max_spp)
-                    .collect();
-                order.sort_by(|&a, &b| ratio[b].total_cmp(&ratio[a]).then(a.cmp(&b)));
-                for i in order {
-                    if left == 0 {
-                        break;
-                    }
-                    if film.pixels[i].n + want[i] < s.max_spp {
-                        want[i] += 1;
-                        left -= 1;
-                    }
-                }
-            }
+        if let Some(rem) = remaining {
+            fit_to_budget(&mut alloc, &st.film, &ratio, rem, s.max_spp);
         }
-        stats += render_counts(scene, &integrator, &mut film, &want, sample_progress);
-        pass += 1;
+        st.stats += render_counts(
+            scene,
+            &integrator,
+            &mut st.film,
+            &alloc.want,
+            sample_progress,
+        );
     };
-    let judgement = last;
-    let converged_fraction = passes.last().map(|p| p.converged_fraction).unwrap_or(0.0);
+    let converged_fraction = st
+        .passes
+        .last()
+        .map(|p| p.converged_fraction)
+        .unwrap_or(0.0);
     let units = match (s.sampler, s.visibility) {
         (SamplerKind::Variance, _) => "Cycles relative error (dimensionless)",
         (_, Visibility::Display) => "display luminance, cd/m^2",
         (_, Visibility::Scene) => "scene luminance, cd/m^2",
     };
     Ok(AdaptiveResult {
-        film,
-        stats,
-        guide_stats,
-        passes,
+        film: st.film,
+        stats: st.stats,
+        guide_stats: criterion.guide_stats(),
+        passes: st.passes,
         stop,
         converged_fraction,
         threshold: Some(judgement.threshold),
         error: Some(judgement.error),
         units,
-        decision_time,
+        decision_time: st.decision_time,
         wall: start.elapsed(),
     })
+}
+
+/// Why the loop stops before allocating another pass, if it does: the time budget, the sample
+/// budget, or convergence without a budget. With a budget, convergence instead halves the
+/// target ratio until fewer than the converged fraction of pixels meet it, so refinement
+/// continues where the ratio is largest.
+fn stop_before_pass(
+    s: &AdaptiveSettings,
+    st: &mut LoopState,
+    ratio: &[f32],
+    converged: f64,
+    remaining: Option<u64>,
+    start: Instant,
+) -> Option<StopReason> {
+    if s.time_budget.is_some_and(|limit| start.elapsed() >= limit) {
+        return Some(StopReason::Time);
+    }
+    let n_px = st.film.len() as f64;
+    if remaining.is_some_and(|r| r == 0 || (r as f64) < 0.002 * n_px) {
+        return Some(StopReason::Budget);
+    }
+    if converged >= s.converged_fraction {
+        if remaining.is_none() {
+            return Some(StopReason::Converged);
+        }
+        while ratio.par_iter().filter(|&&r| r <= st.t_level).count() as f64 / n_px
+            >= s.converged_fraction
+            && st.t_level > 1e-4
+        {
+            st.t_level *= 0.5;
+        }
+    }
+    None
+}
+
+/// The uniform sampler: one pass of the whole budget (bit-identical to a plain render of that
+/// spp).
+fn render_uniform_budget(
+    scene: &Scene,
+    s: &AdaptiveSettings,
+    mut st: LoopState,
+    progress: &(dyn Fn(&PassReport) + Sync),
+    sample_progress: &(dyn Fn(u64) + Sync),
+    start: Instant,
+) -> AdaptiveResult {
+    let integrator = Integrator {
+        max_depth: scene.settings.max_depth,
+        strategy: Strategy::Mis,
+    };
+    let spp = match s.budget_spp {
+        Some(b) => b.round().max(1.0) as u32,
+        None => s.uniform_spp,
+    }
+    .min(s.max_spp);
+    let counts = vec![spp; st.film.len()];
+    st.stats += render_counts(scene, &integrator, &mut st.film, &counts, sample_progress);
+    let report = PassReport {
+        pass: 0,
+        mean_spp: spp as f64,
+        converged_fraction: 1.0,
+        samples: st.stats.samples,
+    };
+    progress(&report);
+    AdaptiveResult {
+        film: st.film,
+        stats: st.stats,
+        guide_stats: None,
+        passes: vec![report],
+        stop: if s.budget_spp.is_some() {
+            StopReason::Budget
+        } else {
+            StopReason::MaxSpp
+        },
+        converged_fraction: 1.0,
+        threshold: None,
+        error: None,
+        units: "",
+        decision_time: Duration::ZERO,
+        wall: start.elapsed(),
+    }
 }

@@ -99,6 +99,11 @@ impl Scene {
         SceneDescription::read(path)?.build()
     }
 
+    /// The seed of the current frame's random streams: the render seed for a still.
+    pub fn frame_seed(&self) -> u64 {
+        self.settings.seed
+    }
+
     /// Builds a scene from an already parsed (and possibly overridden) description.
     ///
     /// # Errors

@@ -1,0 +1,127 @@
+//! The allocation of a pass: how many more samples each pixel gets from its error ratio.
+
+use crate::film::Film;
+use rayon::prelude::*;
+
+/// 3×3 box mean with clamped edges (row-major `w × h`).
+pub(crate) fn box3(v: &[f32], w: usize, h: usize) -> Vec<f32> {
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w) as i64, (i / w) as i64);
+            let mut s = 0.0;
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let xx = (x + dx).clamp(0, w as i64 - 1) as usize;
+                    let yy = (y + dy).clamp(0, h as i64 - 1) as usize;
+                    s += v[yy * w + xx];
+                }
+            }
+            s / 9.0
+        })
+        .collect()
+}
+
+/// 3×3 dilation of a mask (row-major `w × h`).
+pub(crate) fn dilate3(m: &[bool], w: usize, h: usize) -> Vec<bool> {
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w) as i64, (i / w) as i64);
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    let xx = x + dx;
+                    let yy = y + dy;
+                    xx >= 0
+                        && yy >= 0
+                        && xx < w as i64
+                        && yy < h as i64
+                        && m[yy as usize * w + xx as usize]
+                })
+            })
+        })
+        .collect()
+}
+
+/// The samples each pixel gets in the next pass.
+pub(crate) struct Allocation {
+    /// Samples per pixel of the pass (row-major).
+    pub want: Vec<u32>,
+    /// Pixels that may receive samples: those above the target and their 8 neighbours.
+    pub reopen: Vec<bool>,
+}
+
+impl Allocation {
+    /// Samples in the pass.
+    pub fn total(&self) -> u64 {
+        self.want.iter().map(|&c| c as u64).sum()
+    }
+}
+
+/// Pixels with error ratio r above the target `t_level` need about n (r²/t² − 1) more samples
+/// (error falls as 1/√n); each gets that, at most doubling its count, never past `max_spp`;
+/// their 8 neighbours are re-opened with at least n/4.
+pub(crate) fn allocate(film: &Film, ratio: &[f32], t_level: f32, max_spp: u32) -> Allocation {
+    let (w, h) = (film.width as usize, film.height as usize);
+    let active: Vec<bool> = ratio.par_iter().map(|&r| r > t_level).collect();
+    let reopen = dilate3(&active, w, h);
+    let want = film
+        .pixels
+        .par_iter()
+        .zip(ratio.par_iter())
+        .zip(active.par_iter().zip(reopen.par_iter()))
+        .map(|((px, &r), (&act, &reo))| {
+            let n = px.n;
+            if !reo || n >= max_spp {
+                return 0;
+            }
+            let nf = n as f32;
+            let mut c = if act {
+                let q = (r / t_level).min(1e3);
+                (nf * (q * q - 1.0)).ceil()
+            } else {
+                0.0
+            };
+            c = c.max((nf / 4.0).ceil()).max(1.0).min(nf.max(1.0));
+            (c as u32).min(max_spp - n)
+        })
+        .collect();
+    Allocation { want, reopen }
+}
+
+/// Scales an allocation down to `remaining` samples: deterministic rounding down, then the
+/// leftover samples one each in pixel order of decreasing ratio.
+pub(crate) fn fit_to_budget(
+    alloc: &mut Allocation,
+    film: &Film,
+    ratio: &[f32],
+    remaining: u64,
+    max_spp: u32,
+) {
+    let total = alloc.total();
+    if total <= remaining {
+        return;
+    }
+    let want = &mut alloc.want;
+    let f = remaining as f64 / total as f64;
+    for c in want.iter_mut() {
+        *c = (*c as f64 * f).floor() as u32;
+    }
+    let mut left = remaining - want.iter().map(|&c| c as u64).sum::<u64>();
+    if left == 0 {
+        return;
+    }
+    let mut order: Vec<usize> = (0..want.len())
+        .filter(|&i| alloc.reopen[i] && film.pixels[i].n < max_spp)
+        .collect();
+    order.sort_by(|&a, &b| ratio[b].total_cmp(&ratio[a]).then(a.cmp(&b)));
+    for i in order {
+        if left == 0 {
+            break;
+        }
+        if film.pixels[i].n + want[i] < max_spp {
+            want[i] += 1;
+            left -= 1;
+        }
+    }
+}

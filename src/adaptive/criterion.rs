@@ -1,0 +1,281 @@
+//! The per-pixel criterion of a pass: each pixel's error estimate and its threshold.
+//!
+//! The perceptual criterion's threshold is ΔL(x) = L_a(x) · C_noise(x) (see the module docs of
+//! [`super`]); C_noise comes once from the noise-free guide ([`PerceptualCriterion::guide`]),
+//! with the velocity map when the frame moves, and L_a every pass from the current image. The
+//! variance criterion is Cycles'.
+
+use super::allocate::box3;
+use super::{AdaptiveSettings, ErrorEstimate, Visibility};
+use crate::display::FrozenToneMap;
+use crate::film::Film;
+use crate::render::{RenderStats, render_albedo};
+use crate::scene::Scene;
+use perception::adaptation::{AdaptationMode, adaptation_luminance, log_average};
+use perception::photometry::luminance_image;
+use perception::threshold::ThresholdMapper;
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// Seed offset of the guide's samples (independent of the image's).
+const GUIDE_SEED_XOR: u64 = 0x6A09_E667_F3BC_C908;
+
+/// Per-pixel error and threshold of the current film, in the criterion's units.
+pub(crate) struct Judgement {
+    pub error: Vec<f32>,
+    pub threshold: Vec<f32>,
+}
+
+impl Judgement {
+    /// error / threshold per pixel.
+    pub fn ratio(&self) -> Vec<f32> {
+        self.error
+            .par_iter()
+            .zip(self.threshold.par_iter())
+            .map(|(e, t)| e / t.max(1e-30))
+            .collect()
+    }
+}
+
+/// Luminance in visibility units of linear RGB under a frozen display map or the scene scale.
+fn visible_luminance(
+    rgb: &[f32],
+    frozen: Option<&FrozenToneMap>,
+    scale: f32,
+) -> perception::Result<Vec<f32>> {
+    match frozen {
+        Some(f) => f.display_luminance(rgb),
+        None => Ok(luminance_image(rgb, scale)),
+    }
+}
+
+/// What the perceptual criterion takes from the guide, once per frame.
+struct GuideState {
+    /// Threshold RMS contrast of pixel noise (per pixel, dimensionless).
+    noise_contrast: Vec<f32>,
+    /// Saliency in [0, 1] of the first pass's display image, when ω > 0.
+    saliency: Option<Vec<f32>>,
+}
+
+/// The perceptual criterion: half-buffer error against L_a · C_noise.
+pub(crate) struct PerceptualCriterion {
+    mapper: ThresholdMapper,
+    /// Image velocity at the frame's instant, pixels per frame, interleaved (x, y).
+    velocity: Option<Vec<f32>>,
+    state: Option<GuideState>,
+    /// Counters of the guide render, once it ran.
+    pub guide_stats: Option<RenderStats>,
+}
+
+impl PerceptualCriterion {
+    pub fn new(
+        scene: &Scene,
+        s: &AdaptiveSettings,
+        velocity: Option<Vec<f32>>,
+    ) -> perception::Result<Self> {
+        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+        Ok(PerceptualCriterion {
+            mapper: ThresholdMapper::new(w, h, s.tone.view, s.threshold)?,
+            velocity,
+            state: None,
+            guide_stats: None,
+        })
+    }
+
+    /// Renders the albedo guide and computes the noise threshold contrast from it (and the
+    /// saliency of the current display image `mean`, when ω > 0). `lf` is the current image in
+    /// visibility units: the guide's contrast structure is scaled to its mean level.
+    fn guide(
+        &mut self,
+        scene: &Scene,
+        s: &AdaptiveSettings,
+        mean: &[f32],
+        lf: &[f32],
+        frozen: Option<&FrozenToneMap>,
+    ) -> perception::Result<Duration> {
+        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+        let n_px = w * h;
+        let t_guide = Instant::now();
+        let spp = s.guide_spp.max(1);
+        let albedo = render_albedo(scene, spp, scene.frame_seed() ^ GUIDE_SEED_XOR);
+        let guide_time = t_guide.elapsed();
+        self.guide_stats = Some(RenderStats {
+            samples: spp as u64 * n_px as u64,
+            rays: spp as u64 * n_px as u64,
+            nonfinite: 0,
+            wall: guide_time,
+        });
+        let a_lum = luminance_image(&albedo, 1.0);
+        let mean_a = a_lum.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
+        let mean_f = lf.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
+        let k = if mean_a > 0.0 {
+            (mean_f / mean_a) as f32
+        } else {
+            1.0
+        };
+        let g_lum: Vec<f32> = a_lum.iter().map(|&v| v * k).collect();
+        let map = self.mapper.compute(&g_lum, self.velocity.as_deref())?;
+        let saliency = if s.saliency_weight > 0.0 {
+            let display = match frozen {
+                Some(f) => f.map(mean)?,
+                None => mean.to_vec(),
+            };
+            Some(perception::saliency::saliency_map(&display, w, h)?)
+        } else {
+            None
+        };
+        self.state = Some(GuideState {
+            noise_contrast: map.noise_contrast,
+            saliency,
+        });
+        Ok(guide_time)
+    }
+
+    /// Error estimate per pixel in visibility units, before the 3×3 pooling.
+    fn error(
+        film: &Film,
+        s: &AdaptiveSettings,
+        mean: &[f32],
+        lf: &[f32],
+        frozen: Option<&FrozenToneMap>,
+        scale: f32,
+    ) -> perception::Result<Vec<f32>> {
+        Ok(match s.error_estimate {
+            ErrorEstimate::HalfBuffers => {
+                let la = visible_luminance(&film.mean_rgb_even(), frozen, scale)?;
+                let lb = visible_luminance(&film.mean_rgb_odd(), frozen, scale)?;
+                la.par_iter()
+                    .zip(lb.par_iter())
+                    .map(|(a, b)| 0.5 * (a - b).abs())
+                    .collect()
+            }
+            ErrorEstimate::StandardError => film
+                .pixels
+                .par_iter()
+                .zip(mean.par_chunks_exact(3))
+                .zip(lf.par_iter())
+                .map(|((px, rgb), &ld)| {
+                    let y = perception::photometry::luminance(rgb[0], rgb[1], rgb[2]);
+                    let gain = if y > 0.0 { ld / y } else { 0.0 };
+                    let se = if px.n >= 2 {
+                        px.lum_std_error() as f32
+                    } else {
+                        0.0
+                    };
+                    gain * se
+                })
+                .collect(),
+        })
+    }
+
+    /// Judges the film. Returns the judgement and the time spent rendering the guide (a
+    /// rendering cost, not a decision cost).
+    pub fn judge(
+        &mut self,
+        scene: &Scene,
+        film: &Film,
+        s: &AdaptiveSettings,
+    ) -> perception::Result<(Judgement, Duration)> {
+        let (w, h) = (film.width as usize, film.height as usize);
+        let scale = scene.settings.luminance_scale;
+        let mean = film.mean_rgb();
+        let frozen = match s.visibility {
+            Visibility::Display => Some(FrozenToneMap::new(&mean, w, h, &s.tone)?),
+            Visibility::Scene => None,
+        };
+        let lf = visible_luminance(&mean, frozen.as_ref(), scale)?;
+        let guide_time = if self.state.is_none() {
+            self.guide(scene, s, &mean, &lf, frozen.as_ref())?
+        } else {
+            Duration::ZERO
+        };
+        let st = self.state.as_ref().expect("set above");
+        let e = Self::error(film, s, &mean, &lf, frozen.as_ref(), scale)?;
+        let error = box3(&e, w, h);
+        let adapt = adaptation_luminance(
+            &lf,
+            w,
+            h,
+            &s.tone.view,
+            AdaptationMode::LocalArithmetic,
+            s.threshold.adaptation_window_deg,
+        )?;
+        let mut threshold: Vec<f32> = adapt
+            .par_iter()
+            .zip(st.noise_contrast.par_iter())
+            .map(|(&a, &c)| a * c)
+            .collect();
+        if let Some(sal) = &st.saliency {
+            threshold = perception::saliency::aleph_map(&threshold, sal, s.saliency_weight)?;
+        }
+        Ok((Judgement { error, threshold }, guide_time))
+    }
+}
+
+/// Blender Cycles' noise-threshold criterion (after Dammertz et al. 2010): the difference of
+/// the full and even-sample means, relative to √I below 1 and to I above, at the auto exposure
+/// of the first pass.
+pub(crate) struct VarianceCriterion {
+    /// Film exposure: 0.18 / log-average luminance of the first pass.
+    exposure: f32,
+    threshold: f32,
+}
+
+impl VarianceCriterion {
+    pub fn new(first_pass: &Film, threshold: f32) -> Self {
+        let lum = luminance_image(&first_pass.mean_rgb(), 1.0);
+        VarianceCriterion {
+            exposure: 0.18 / log_average(&lum).max(1e-9),
+            threshold,
+        }
+    }
+
+    pub fn judge(&self, film: &Film) -> Judgement {
+        let mean = film.mean_rgb();
+        let even = film.mean_rgb_even();
+        let k = self.exposure;
+        let error: Vec<f32> = mean
+            .par_chunks_exact(3)
+            .zip(even.par_chunks_exact(3))
+            .map(|(f, a)| {
+                let diff = ((f[0] - a[0]).abs() + (f[1] - a[1]).abs() + (f[2] - a[2]).abs()) * k;
+                let i = (f[0] + f[1] + f[2]) * k;
+                let norm = if i < 1.0 { i.max(0.0).sqrt() } else { i };
+                diff / (1e-4 + norm)
+            })
+            .collect();
+        Judgement {
+            error,
+            threshold: vec![self.threshold; film.len()],
+        }
+    }
+}
+
+/// One of the adaptive criteria.
+pub(crate) enum Criterion {
+    Perceptual(Box<PerceptualCriterion>),
+    Variance(VarianceCriterion),
+}
+
+impl Criterion {
+    /// Judges the film; returns the judgement and the guide's render time (if it ran now).
+    pub fn judge(
+        &mut self,
+        scene: &Scene,
+        film: &Film,
+        s: &AdaptiveSettings,
+    ) -> perception::Result<(Judgement, Duration)> {
+        match self {
+            Criterion::Perceptual(p) => p.judge(scene, film, s),
+            Criterion::Variance(v) => Ok((v.judge(film), Duration::ZERO)),
+        }
+    }
+
+    /// Counters of the guide render (perceptual only).
+    pub fn guide_stats(&self) -> Option<RenderStats> {
+        match self {
+            Criterion::Perceptual(p) => p.guide_stats,
+            Criterion::Variance(_) => None,
+        }
+    }
+}
