@@ -1,5 +1,6 @@
 //! The pinhole camera.
 
+use crate::animation::CameraKey;
 use crate::geometry::Ray;
 use glam::{Vec2, Vec3};
 
@@ -60,9 +61,38 @@ impl Camera {
         2.0 * (self.tan_half_v * aspect).atan().to_degrees()
     }
 
-    /// The primary ray through pixel (x, y) at sub-pixel offset `u` ∈ [0,1)².
+    /// The camera of a keyframed pose (see [`CameraKey`]) at a resolution; `None` as
+    /// [`Camera::look_at`].
+    pub fn from_key(k: &CameraKey, width: u32, height: u32) -> Option<Camera> {
+        Camera::look_at(k.position, k.look_at, k.up, k.vfov_deg, width, height)
+    }
+
+    /// Continuous raster position (x right, y down, pixel (x, y) covering [x, x+1) × [y, y+1))
+    /// of world point `p`, or `None` when `p` is not in front of the camera.
+    pub fn raster(&self, p: Vec3) -> Option<Vec2> {
+        self.raster_of_direction(p - self.position)
+    }
+
+    /// Continuous raster position of the direction `d` (a point at infinity), or `None` when it
+    /// points behind the image plane.
+    pub fn raster_of_direction(&self, d: Vec3) -> Option<Vec2> {
+        let z = d.dot(self.forward);
+        if z <= 0.0 {
+            return None;
+        }
+        let aspect = self.width as f32 / self.height as f32;
+        let sx = d.dot(self.right) / z / (self.tan_half_v * aspect);
+        let sy = d.dot(self.up) / z / self.tan_half_v;
+        Some(Vec2::new(
+            0.5 * (sx + 1.0) * self.width as f32,
+            0.5 * (1.0 - sy) * self.height as f32,
+        ))
+    }
+
+    /// The primary ray through pixel (x, y) at sub-pixel offset `u` ∈ [0,1)², at scene time
+    /// `time` (seconds).
     #[inline]
-    pub fn generate_ray(&self, x: u32, y: u32, u: Vec2) -> Ray {
+    pub fn generate_ray(&self, x: u32, y: u32, u: Vec2, time: f32) -> Ray {
         let aspect = self.width as f32 / self.height as f32;
         let sx = (2.0 * (x as f32 + u.x) / self.width as f32 - 1.0) * self.tan_half_v * aspect;
         let sy = (1.0 - 2.0 * (y as f32 + u.y) / self.height as f32) * self.tan_half_v;
@@ -71,6 +101,7 @@ impl Camera {
             o: self.position,
             d,
             t_max: f32::INFINITY,
+            time,
         }
     }
 }
@@ -82,15 +113,35 @@ mod tests {
     #[test]
     fn centre_ray_looks_forward_and_corners_span_the_fov() {
         let c = Camera::look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y, 90.0, 100, 50).unwrap();
-        let r = c.generate_ray(50, 25, Vec2::ZERO);
+        let r = c.generate_ray(50, 25, Vec2::ZERO, 0.0);
         assert!((r.d - -Vec3::Z).length() < 1e-6);
         // Top edge at 45° above the axis for a 90° vertical FOV.
-        let top = c.generate_ray(50, 0, Vec2::ZERO);
+        let top = c.generate_ray(50, 0, Vec2::ZERO, 0.0);
         assert!((top.d.y / -top.d.z - 1.0).abs() < 1e-5);
         // Left edge: tan(h/2) = aspect × tan(v/2) = 2, to the left (−x).
-        let left = c.generate_ray(0, 25, Vec2::ZERO);
+        let left = c.generate_ray(0, 25, Vec2::ZERO, 0.0);
         assert!((left.d.x / -left.d.z + 2.0).abs() < 1e-5);
         assert!((c.hfov_deg() - 2.0 * 2f32.atan().to_degrees()).abs() < 1e-3);
         assert!(Camera::look_at(Vec3::ZERO, Vec3::Y, Vec3::Y, 40.0, 1, 1).is_none());
+    }
+
+    #[test]
+    fn raster_inverts_generate_ray() {
+        let c = Camera::look_at(
+            Vec3::new(1.0, 2.0, 3.0),
+            Vec3::new(0.0, 0.5, -1.0),
+            Vec3::Y,
+            50.0,
+            64,
+            48,
+        )
+        .unwrap();
+        for (x, y, u) in [(0, 0, Vec2::new(0.25, 0.75)), (40, 17, Vec2::splat(0.5))] {
+            let r = c.generate_ray(x, y, u, 0.0);
+            let want = Vec2::new(x as f32, y as f32) + u;
+            let got = c.raster(r.o + 7.0 * r.d).unwrap();
+            assert!((got - want).length() < 1e-3, "{got} vs {want}");
+        }
+        assert!(c.raster(c.position - (c.forward)).is_none());
     }
 }

@@ -4,6 +4,7 @@
 
 use perception::adaptation::{AdaptationMode, adaptation_luminance};
 use perception::photometry::luminance_image;
+use perception::tmo::pattanaik00::AdaptationState;
 use perception::tmo::{Display, Operator};
 use perception::viewing::ViewingConditions;
 use plotters::prelude::*;
@@ -23,6 +24,11 @@ pub struct ToneMapSettings {
     pub display: Display,
     /// cd/m² per unit of the linear input.
     pub luminance_scale: f32,
+    /// The viewer's adaptation carried from earlier frames of a sequence (Pattanaik et al.
+    /// 2000's time course). When set, PTYG maps with it (global, time-dependent adaptation and
+    /// bleaching) and the exposure operator's scale is key / the cone adaptation luminance,
+    /// instead of each taking its adaptation from the image itself.
+    pub adaptation_state: Option<AdaptationState>,
 }
 
 impl Default for ToneMapSettings {
@@ -33,6 +39,7 @@ impl Default for ToneMapSettings {
             view: ViewingConditions::default(),
             display: Display::default(),
             luminance_scale: 100.0,
+            adaptation_state: None,
         }
     }
 }
@@ -101,8 +108,11 @@ impl FrozenToneMap {
         };
         let adaptation = adaptation_luminance(&lum, width, height, &s.view, mode, 1.0)?;
         let exposure = perception::tmo::exposure::Exposure::default();
-        let exposure_scale =
-            exposure.key / perception::adaptation::log_average(&lum).max(1e-9) as f64;
+        let adapted = match s.adaptation_state {
+            Some(state) => state.cone_neural,
+            None => perception::adaptation::log_average(&lum) as f64,
+        };
+        let exposure_scale = exposure.key / adapted.max(1e-9);
         let reinhard = perception::tmo::reinhard02::Reinhard02::default().parameters(&rgb_cd);
         Ok(FrozenToneMap {
             settings: *s,
@@ -157,6 +167,11 @@ impl FrozenToneMap {
                 log_average: Some(self.reinhard.0),
             }
             .map(&rgb_cd),
+            Operator::Ptyg if s.adaptation_state.is_some() => {
+                let p = ptyg_display(display);
+                let state = s.adaptation_state.expect("matched");
+                pattanaik00::Pattanaik00::map_dynamic(&p, &rgb_cd, &state)
+            }
             op => {
                 // These operators depend on the image only through the adaptation map.
                 let mut out = perception::tmo::apply(op, &rgb_cd, w, h, &self.adaptation, display);
@@ -182,6 +197,19 @@ impl FrozenToneMap {
         let k = self.display_max_cd_m2() as f32;
         Ok(luminance_image(&self.map(rgb)?, k))
     }
+}
+
+/// PTYG's display with the overrides of `display` (as `perception::tmo::apply` sets them).
+fn ptyg_display(display: &Display) -> perception::tmo::pattanaik00::Pattanaik00 {
+    let mut p = perception::tmo::pattanaik00::Pattanaik00::default();
+    if let Some(a) = display.ambient_cd_m2 {
+        p.display_adaptation_cd_m2 = a;
+        p.display_white_cd_m2 = a * perception::tmo::pattanaik00::WHITE_FACTOR;
+    }
+    if let Some(m) = display.max_cd_m2 {
+        p.display_white_cd_m2 = m;
+    }
+    p
 }
 
 /// Registers the bundled DejaVu Sans as plotters' "sans-serif" (once).
@@ -265,4 +293,44 @@ pub fn contact_sheet(
         root.present().ok();
     }
     Ok((buf, sw as u32, sh as u32))
+}
+
+/// A filmstrip contact sheet of a sequence: the display images of `frames` (frame number and
+/// 8-bit sRGB of `width × height` each), shrunk to at most 192 pixels wide, 6 to a row, each
+/// labelled with its frame number. Returns 8-bit sRGB, width and height.
+pub fn filmstrip(frames: &[(i64, Vec<u8>)], width: usize, height: usize) -> (Vec<u8>, u32, u32) {
+    register_font();
+    let factor = width.div_ceil(192).max(1);
+    let (tw, th) = ((width / factor).max(1), (height / factor).max(1));
+    let label_h = 22usize;
+    let cols = frames.len().clamp(1, 6);
+    let rows = frames.len().div_ceil(cols).max(1);
+    let (sw, sh) = (cols * tw, rows * (th + label_h));
+    let mut buf = vec![0u8; 3 * sw * sh];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (sw as u32, sh as u32)).into_drawing_area();
+        root.fill(&RGBColor(24, 24, 24)).ok();
+        for (i, (index, img)) in frames.iter().enumerate() {
+            let lin: Vec<f32> = img.iter().map(|&v| v as f32).collect();
+            let (small, _, _) = downscale(&lin, width, height, factor);
+            let tile: Vec<u8> = small.iter().map(|&v| v.round() as u8).collect();
+            let (cx, cy) = ((i % cols) * tw, (i / cols) * (th + label_h));
+            if let Some(el) = BitMapElement::<(i32, i32)>::with_owned_buffer(
+                (cx as i32, (cy + label_h) as i32),
+                (tw as u32, th as u32),
+                tile,
+            ) {
+                root.draw(&el).ok();
+            }
+            let style = TextStyle::from(("sans-serif", 15).into_font()).color(&WHITE);
+            root.draw_text(
+                &format!("frame {index}"),
+                &style,
+                (cx as i32 + 6, cy as i32 + 3),
+            )
+            .ok();
+        }
+        root.present().ok();
+    }
+    (buf, sw as u32, sh as u32)
 }

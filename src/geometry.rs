@@ -1,13 +1,22 @@
-//! Triangle geometry and ray intersection through an obvhs compressed wide BVH (CWBVH,
-//! Ylitie et al. 2017, built with PLOC by Meister & Bittner 2018).
+//! Triangle geometry and ray intersection through obvhs compressed wide BVHs (CWBVH, Ylitie
+//! et al. 2017, built with PLOC by Meister & Bittner 2018).
+//!
+//! Two levels: the static triangles of a scene sit in one BVH in world space, exactly as in a
+//! still; every mesh with keyframed motion has a BVH of its own in its rest space (built once)
+//! and is an [`Instance`] whose world-space box covers its motion over the whole animation. A
+//! ray at time t enters an instance whose box it crosses by the inverse of the instance's
+//! transform at t ([`TransformTrack::at`]); distances along the ray are the same in both spaces
+//! because the transformed direction is not renormalised.
 
-use glam::{Vec2, Vec3, Vec3A};
+use crate::animation::TransformTrack;
+use glam::{Affine3A, Vec2, Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray as BvhRay, RayHit};
 use obvhs::triangle::Triangle as BvhTriangle;
 use std::time::Duration;
 
-/// A ray with origin `o`, unit direction `d`, valid for t in (0, `t_max`).
+/// A ray with origin `o`, unit direction `d`, valid for t in (0, `t_max`), at scene time
+/// `time`.
 #[derive(Clone, Copy, Debug)]
 pub struct Ray {
     /// Origin (world space).
@@ -16,7 +25,12 @@ pub struct Ray {
     pub d: Vec3,
     /// Largest valid distance.
     pub t_max: f32,
+    /// Scene time, seconds: moving geometry is intersected where it is at this time.
+    pub time: f32,
 }
+
+/// `TriangleAttributes::instance` of a static triangle (world space).
+pub const STATIC_INSTANCE: u32 = u32::MAX;
 
 /// Per-triangle shading attributes, indexed by triangle id.
 #[derive(Clone, Copy, Debug)]
@@ -31,6 +45,9 @@ pub struct TriangleAttributes {
     pub material: u32,
     /// Index into the scene's emitter list, or `u32::MAX` when the triangle does not emit.
     pub light: u32,
+    /// The moving instance the triangle belongs to (its `p` and `n` are then in the instance's
+    /// rest space), or [`STATIC_INSTANCE`] (world space).
+    pub instance: u32,
 }
 
 impl TriangleAttributes {
@@ -105,30 +122,28 @@ impl IsectTri {
     }
 }
 
-/// All triangles of a scene with their BVH.
-pub struct Geometry {
+/// One bottom-level BVH over a set of triangles (in world space for the static set, in rest
+/// space for an instance).
+struct Blas {
     bvh: CwBvh,
     /// Intersection records in BVH slot order.
     isect: Vec<IsectTri>,
     /// BVH slot → triangle id.
     slot_to_tri: Vec<u32>,
-    /// Attributes by triangle id.
-    pub tris: Vec<TriangleAttributes>,
-    /// Time spent building the BVH.
-    pub build_time: Duration,
 }
 
-impl Geometry {
-    /// Builds the BVH over `tris` (at least one triangle; degenerate ones are kept but never
-    /// hit).
-    pub fn new(tris: Vec<TriangleAttributes>) -> Geometry {
-        let start = std::time::Instant::now();
-        let bvh_tris: Vec<BvhTriangle> = tris
+impl Blas {
+    /// Builds over the triangles `ids` of `tris` (at least one).
+    fn build(tris: &[TriangleAttributes], ids: &[u32]) -> Blas {
+        let bvh_tris: Vec<BvhTriangle> = ids
             .iter()
-            .map(|t| BvhTriangle {
-                v0: t.p[0].into(),
-                v1: t.p[1].into(),
-                v2: t.p[2].into(),
+            .map(|&i| {
+                let t = &tris[i as usize];
+                BvhTriangle {
+                    v0: t.p[0].into(),
+                    v1: t.p[1].into(),
+                    v2: t.p[2].into(),
+                }
             })
             .collect();
         let mut core = Duration::default();
@@ -137,7 +152,11 @@ impl Geometry {
             obvhs::BvhBuildParams::medium_build(),
             &mut core,
         );
-        let slot_to_tri = bvh.primitive_indices.clone();
+        let slot_to_tri: Vec<u32> = bvh
+            .primitive_indices
+            .iter()
+            .map(|&k| ids[k as usize])
+            .collect();
         let isect = slot_to_tri
             .iter()
             .map(|&i| {
@@ -149,10 +168,186 @@ impl Geometry {
                 }
             })
             .collect();
-        Geometry {
+        Blas {
             bvh,
             isect,
             slot_to_tri,
+        }
+    }
+
+    /// Closest hit closer than `t_max`: (triangle id, t, b1, b2).
+    #[inline]
+    fn closest(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<(u32, f32, f32, f32)> {
+        let bray = BvhRay::new(o, d, 0.0, t_max);
+        let mut hit = RayHit::none();
+        let mut bary = (0.0f32, 0.0f32);
+        let found = self.bvh.ray_traverse(bray, &mut hit, |r, slot| {
+            match self.isect[slot].intersect(o, d, r.tmax) {
+                Some((t, b1, b2)) => {
+                    bary = (b1, b2);
+                    t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        // The closure only reports hits closer than the current closest, and traversal accepts
+        // every one it reports, so `bary` belongs to the final (closest) hit.
+        found.then(|| {
+            let tri = self.slot_to_tri[hit.primitive_id as usize];
+            (tri, hit.t, bary.0, bary.1)
+        })
+    }
+
+    /// True when nothing is hit closer than `t_max`.
+    #[inline]
+    fn unoccluded(&self, o: Vec3A, d: Vec3A, t_max: f32) -> bool {
+        let bray = BvhRay::new(o, d, 0.0, t_max);
+        self.bvh.ray_traverse_miss(bray, |r, slot| {
+            match self.isect[slot].intersect(o, d, r.tmax) {
+                Some((t, _, _)) => t,
+                None => f32::INFINITY,
+            }
+        })
+    }
+}
+
+/// A mesh in rigid (keyframed) motion: its BVH in rest space, its transform over time, and a
+/// world-space box that covers it over the animation's time range.
+pub struct Instance {
+    /// Rest space → world space over time.
+    pub track: TransformTrack,
+    blas: Blas,
+    bounds_min: Vec3A,
+    bounds_max: Vec3A,
+}
+
+impl Instance {
+    /// Parametric entry distance of the ray into the instance's box, if it enters it before
+    /// `t_max` (slab test; `inv_d` = 1/d).
+    #[inline]
+    fn enters(&self, o: Vec3A, inv_d: Vec3A, t_max: f32) -> bool {
+        let t0 = (self.bounds_min - o) * inv_d;
+        let t1 = (self.bounds_max - o) * inv_d;
+        let near = t0.min(t1).max_element().max(0.0);
+        let far = t0.max(t1).min_element().min(t_max);
+        near <= far
+    }
+}
+
+/// World-space box covering rest-space box [`lo`, `hi`] under `track` over [`t0`, `t1`]:
+/// the union of the box's transformed corners at 256 uniform times and every key time in the
+/// range, padded by the largest distance any corner moves between consecutive times (which
+/// bounds how far the interpolated path strays from the sampled points).
+fn motion_bounds(track: &TransformTrack, lo: Vec3, hi: Vec3, t0: f32, t1: f32) -> (Vec3A, Vec3A) {
+    const SAMPLES: usize = 256;
+    let mut times: Vec<f32> = (0..=SAMPLES)
+        .map(|k| t0 + (t1 - t0) * k as f32 / SAMPLES as f32)
+        .chain(
+            track
+                .keys()
+                .iter()
+                .map(|k| k.time_s)
+                .filter(|&t| t > t0 && t < t1),
+        )
+        .collect();
+    times.sort_by(f32::total_cmp);
+    let corners: Vec<Vec3> = (0..8)
+        .map(|c| {
+            Vec3::new(
+                if c & 1 == 0 { lo.x } else { hi.x },
+                if c & 2 == 0 { lo.y } else { hi.y },
+                if c & 4 == 0 { lo.z } else { hi.z },
+            )
+        })
+        .collect();
+    let (mut bmin, mut bmax) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    let mut pad = 0.0f32;
+    let mut prev: Option<Vec<Vec3>> = None;
+    for &t in &times {
+        let m = track.at(t);
+        let now: Vec<Vec3> = corners.iter().map(|&c| m.transform_point3(c)).collect();
+        for &p in &now {
+            bmin = bmin.min(p);
+            bmax = bmax.max(p);
+        }
+        if let Some(prev) = &prev {
+            for (a, b) in prev.iter().zip(&now) {
+                pad = pad.max(a.distance(*b));
+            }
+        }
+        prev = Some(now);
+    }
+    let pad = pad + 1e-4 * bmin.abs().max(bmax.abs()).max_element().max(1.0);
+    ((bmin - pad).into(), (bmax + pad).into())
+}
+
+/// All triangles of a scene with their BVHs.
+pub struct Geometry {
+    /// The static triangles' BVH (world space), if there are any.
+    stat: Option<Blas>,
+    /// Moving meshes.
+    instances: Vec<Instance>,
+    /// Attributes by triangle id.
+    pub tris: Vec<TriangleAttributes>,
+    /// Time spent building the BVHs.
+    pub build_time: Duration,
+}
+
+impl Geometry {
+    /// Builds the BVH over `tris`, all static (at least one triangle; degenerate ones are kept
+    /// but never hit).
+    pub fn new(tris: Vec<TriangleAttributes>) -> Geometry {
+        Geometry::with_instances(tris, Vec::new(), (0.0, 0.0))
+    }
+
+    /// Builds a two-level structure: triangles whose `instance` is [`STATIC_INSTANCE`] in one
+    /// world-space BVH, the triangles of instance i (in rest space) in a BVH of their own moved
+    /// by `tracks[i]`, with boxes covering the motion over `time_range` (seconds, every shutter
+    /// of the sequence included). Needs at least one triangle.
+    ///
+    /// # Panics
+    /// If a triangle names an instance without a track, or a track has no triangle.
+    pub fn with_instances(
+        tris: Vec<TriangleAttributes>,
+        tracks: Vec<TransformTrack>,
+        time_range: (f32, f32),
+    ) -> Geometry {
+        let start = std::time::Instant::now();
+        let mut ids: Vec<Vec<u32>> = vec![Vec::new(); tracks.len()];
+        let mut static_ids = Vec::new();
+        for (i, t) in tris.iter().enumerate() {
+            if t.instance == STATIC_INSTANCE {
+                static_ids.push(i as u32);
+            } else {
+                ids[t.instance as usize].push(i as u32);
+            }
+        }
+        let stat = (!static_ids.is_empty()).then(|| Blas::build(&tris, &static_ids));
+        let instances = tracks
+            .into_iter()
+            .zip(ids)
+            .map(|(track, ids)| {
+                assert!(!ids.is_empty(), "an instance without triangles");
+                let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                for &i in &ids {
+                    for p in tris[i as usize].p {
+                        lo = lo.min(p);
+                        hi = hi.max(p);
+                    }
+                }
+                let (bounds_min, bounds_max) =
+                    motion_bounds(&track, lo, hi, time_range.0, time_range.1);
+                Instance {
+                    blas: Blas::build(&tris, &ids),
+                    track,
+                    bounds_min,
+                    bounds_max,
+                }
+            })
+            .collect();
+        Geometry {
+            stat,
+            instances,
             tris,
             build_time: start.elapsed(),
         }
@@ -168,36 +363,88 @@ impl Geometry {
         self.tris.is_empty()
     }
 
-    /// Closest intersection along `ray`, if any.
+    /// True when some geometry moves.
+    pub fn has_motion(&self) -> bool {
+        !self.instances.is_empty()
+    }
+
+    /// The transform of triangle `tri`'s instance at `time` (`None` for a static triangle).
+    #[inline]
+    pub fn transform_at(&self, tri: u32, time: f32) -> Option<Affine3A> {
+        let inst = self.tris[tri as usize].instance;
+        (inst != STATIC_INSTANCE).then(|| self.instance_of(inst).track.at(time))
+    }
+
+    #[inline]
+    fn instance_of(&self, inst: u32) -> &Instance {
+        &self.instances[inst as usize]
+    }
+
+    /// The world-space vertices of triangle `tri` at `time`.
+    #[inline]
+    pub fn world_vertices(&self, tri: u32, time: f32) -> [Vec3; 3] {
+        let a = &self.tris[tri as usize];
+        match self.transform_at(tri, time) {
+            None => a.p,
+            Some(m) => a.p.map(|p| m.transform_point3(p)),
+        }
+    }
+
+    /// Closest intersection along `ray` (at `ray.time`), if any.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let o: Vec3A = ray.o.into();
         let d: Vec3A = ray.d.into();
-        let bray = BvhRay::new(o, d, 0.0, ray.t_max);
-        let mut hit = RayHit::none();
-        let mut bary = (0.0f32, 0.0f32);
-        let found = self.bvh.ray_traverse(bray, &mut hit, |r, slot| {
-            match self.isect[slot].intersect(o, d, r.tmax) {
-                Some((t, b1, b2)) => {
-                    bary = (b1, b2);
-                    t
-                }
-                None => f32::INFINITY,
-            }
-        });
-        if !found {
-            return None;
+        let mut best: Option<(u32, f32, f32, f32)> = None;
+        let mut t_max = ray.t_max;
+        if let Some(stat) = &self.stat
+            && let Some(h) = stat.closest(o, d, t_max)
+        {
+            t_max = h.1;
+            best = Some(h);
         }
-        // The closure only reports hits closer than the current closest, and traversal accepts
-        // every one it reports, so `bary` belongs to the final (closest) hit.
-        let slot = hit.primitive_id as usize;
-        let (t, b1, b2) = (hit.t, bary.0, bary.1);
-        let tri = self.slot_to_tri[slot];
+        let mut best_xf = None;
+        if !self.instances.is_empty() {
+            let inv_d = d.recip();
+            for inst in &self.instances {
+                if !inst.enters(o, inv_d, t_max) {
+                    continue;
+                }
+                let m = inst.track.at(ray.time);
+                let inv = m.inverse();
+                let (oi, di) = (inv.transform_point3a(o), inv.transform_vector3a(d));
+                if let Some(h) = inst.blas.closest(oi, di, t_max) {
+                    t_max = h.1;
+                    best = Some(h);
+                    best_xf = Some(m);
+                }
+            }
+        }
+        let (tri, t, b1, b2) = best?;
+        Some(self.hit(tri, t, b1, b2, best_xf.as_ref()))
+    }
+
+    /// The hit record of triangle `tri` at distance `t` and barycentrics (b1, b2), with the
+    /// instance transform `xf` at the ray's time for a moving triangle.
+    #[inline]
+    fn hit(&self, tri: u32, t: f32, b1: f32, b2: f32, xf: Option<&Affine3A>) -> Hit {
         let a = &self.tris[tri as usize];
         let b0 = 1.0 - b1 - b2;
-        let p = a.p[0] * b0 + a.p[1] * b1 + a.p[2] * b2;
-        let ng = a.geometric_normal();
-        let ns = match a.n {
+        let (p, ng, n) = match xf {
+            None => (a.p, a.geometric_normal(), a.n),
+            Some(m) => {
+                let p = a.p.map(|v| m.transform_point3(v));
+                let ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+                let nm = m.matrix3.inverse().transpose();
+                (
+                    p,
+                    ng,
+                    a.n.map(|n| n.map(|v| Vec3::from(nm * Vec3A::from(v)))),
+                )
+            }
+        };
+        let pos = p[0] * b0 + p[1] * b1 + p[2] * b2;
+        let ns = match n {
             Some(n) => {
                 let s = (n[0] * b0 + n[1] * b1 + n[2] * b2).normalize_or_zero();
                 if s == Vec3::ZERO {
@@ -211,27 +458,38 @@ impl Geometry {
             None => ng,
         };
         let uv = a.uv[0] * b0 + a.uv[1] * b1 + a.uv[2] * b2;
-        Some(Hit {
+        Hit {
             t,
-            p,
+            p: pos,
             ng,
             ns,
             uv,
             tri,
-        })
+        }
     }
 
-    /// True when nothing blocks the segment from `o` along unit `d` up to distance `t_max`.
+    /// True when nothing blocks the segment from `o` along unit `d` up to distance `t_max` at
+    /// scene time `time`.
     #[inline]
-    pub fn unoccluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
+    pub fn unoccluded(&self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> bool {
         let o: Vec3A = o.into();
         let d: Vec3A = d.into();
-        let bray = BvhRay::new(o, d, 0.0, t_max);
-        self.bvh.ray_traverse_miss(bray, |r, slot| {
-            match self.isect[slot].intersect(o, d, r.tmax) {
-                Some((t, _, _)) => t,
-                None => f32::INFINITY,
+        if let Some(stat) = &self.stat
+            && !stat.unoccluded(o, d, t_max)
+        {
+            return false;
+        }
+        if self.instances.is_empty() {
+            return true;
+        }
+        let inv_d = d.recip();
+        self.instances.iter().all(|inst| {
+            if !inst.enters(o, inv_d, t_max) {
+                return true;
             }
+            let inv = inst.track.at(time).inverse();
+            inst.blas
+                .unoccluded(inv.transform_point3a(o), inv.transform_vector3a(d), t_max)
         })
     }
 }

@@ -100,6 +100,7 @@ pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> Vec3 {
                     o: offset_origin(hit.p, hit.ng, wi),
                     d: wi,
                     t_max: f32::INFINITY,
+                    time: ray.time,
                 };
             }
         }
@@ -136,7 +137,7 @@ impl Integrator {
                 } else {
                     match self.strategy {
                         Strategy::Mis => {
-                            let light_pdf = scene.lights.pdf(tri, prev_p, hit.p);
+                            let light_pdf = scene.lights.pdf(geo, hit.tri, ray.time, prev_p, hit.p);
                             power_heuristic(prev_pdf, light_pdf)
                         }
                         Strategy::LightOnly => 0.0,
@@ -173,7 +174,8 @@ impl Integrator {
                     hit.p,
                     uc_light,
                     u_light,
-                    &geo.tris,
+                    ray.time,
+                    geo,
                     &scene.materials,
                     &scene.textures,
                 )
@@ -189,7 +191,7 @@ impl Integrator {
                     let d = target - o;
                     let dist = d.length();
                     rays += 1;
-                    if dist > 0.0 && geo.unoccluded(o, d / dist, dist) {
+                    if dist > 0.0 && geo.unoccluded(o, d / dist, dist, ray.time) {
                         let w = if self.strategy == Strategy::Mis {
                             power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
                         } else {
@@ -228,6 +230,7 @@ impl Integrator {
                 o: offset_origin(hit.p, hit.ng, wi_world),
                 d: wi_world,
                 t_max: f32::INFINITY,
+                time: ray.time,
             };
             depth += 1;
 

@@ -17,6 +17,7 @@
 //! ```
 
 pub mod adaptive;
+pub mod animation;
 pub mod bsdf;
 pub mod camera;
 pub mod chi2;
@@ -34,5 +35,7 @@ pub mod render;
 pub mod rng;
 pub mod sampling;
 pub mod scene;
+pub mod sequence;
 pub mod speedup;
 pub mod texture;
+pub mod velocity;

@@ -5,7 +5,7 @@
 //! unbiased, power makes it efficient), samples a point uniformly on it (area pdf 1/A) and
 //! converts to solid angle at the receiver: pdf_ω = pdf_A · d² / |cos θ_l| (Veach 1997 eq. 8.10).
 
-use crate::geometry::TriangleAttributes;
+use crate::geometry::{Geometry, TriangleAttributes};
 use crate::material::Material;
 use crate::sampling::{Distribution1D, square_to_uniform_triangle};
 use crate::texture::Texture;
@@ -77,25 +77,31 @@ impl Lights {
         self.dist.total()
     }
 
-    /// Samples a point on an emitter as seen from `p_ref`. `uc` chooses the triangle, `u` the
-    /// point. Returns `None` for a degenerate configuration (zero distance or grazing).
+    /// Samples a point on an emitter as seen from `p_ref` at scene time `time` (moving
+    /// emitters are where they are then). `uc` chooses the triangle, `u` the point. Returns
+    /// `None` for a degenerate configuration (zero distance or grazing).
+    #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn sample(
         &self,
         p_ref: Vec3,
         uc: f32,
         u: Vec2,
-        tris: &[TriangleAttributes],
+        time: f32,
+        geo: &Geometry,
         materials: &[Material],
         textures: &[Texture],
     ) -> Option<LightSample> {
         let (li, pmf) = self.dist.sample(uc);
-        let t = &tris[self.tris[li] as usize];
+        let tri = self.tris[li];
+        let t = &geo.tris[tri as usize];
+        let v = geo.world_vertices(tri, time);
         let b = square_to_uniform_triangle(u);
         let b0 = 1.0 - b.x - b.y;
-        let p = t.p[0] * b.x + t.p[1] * b.y + t.p[2] * b0;
-        let n = t.geometric_normal();
-        let area = t.area();
+        let p = v[0] * b.x + v[1] * b.y + v[2] * b0;
+        let cross = (v[1] - v[0]).cross(v[2] - v[0]);
+        let n = cross.normalize_or_zero();
+        let area = 0.5 * cross.length();
         let d = p - p_ref;
         let dist2 = d.length_squared();
         if dist2 <= 0.0 || area <= 0.0 {
@@ -121,20 +127,23 @@ impl Lights {
     }
 
     /// Solid-angle pdf with which [`Lights::sample`] would pick point `p_light` on emitter
-    /// triangle `tri` (whose `light` index is set) from `p_ref`.
+    /// triangle `tri` (whose `light` index is set) from `p_ref` at scene time `time`.
     #[inline]
-    pub fn pdf(&self, tri: &TriangleAttributes, p_ref: Vec3, p_light: Vec3) -> f32 {
-        if tri.light == u32::MAX {
+    pub fn pdf(&self, geo: &Geometry, tri: u32, time: f32, p_ref: Vec3, p_light: Vec3) -> f32 {
+        let light = geo.tris[tri as usize].light;
+        if light == u32::MAX {
             return 0.0;
         }
+        let v = geo.world_vertices(tri, time);
+        let cross = (v[1] - v[0]).cross(v[2] - v[0]);
+        let n = cross.normalize_or_zero();
+        let area = 0.5 * cross.length();
         let d = p_light - p_ref;
         let dist2 = d.length_squared();
-        let n = tri.geometric_normal();
         let cos_l = (-d.dot(n) / dist2.sqrt()).max(0.0);
-        let area = tri.area();
         if cos_l <= 1e-7 || area <= 0.0 {
             return 0.0;
         }
-        self.dist.pmf(tri.light as usize) / area * dist2 / cos_l
+        self.dist.pmf(light as usize) / area * dist2 / cos_l
     }
 }

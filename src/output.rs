@@ -244,6 +244,37 @@ fn sort_exr_header_attributes(bytes: &mut [u8]) {
     bytes[start..pos].copy_from_slice(&header);
 }
 
+/// Encodes an animated PNG (APNG; plays in web browsers and most image viewers) of 8-bit RGB
+/// frames (row-major, 3 per pixel, all `width × height`), each shown for 1/`fps` s, looping.
+///
+/// # Errors
+/// [`OutputError::Encode`] if the encoder fails (no frames, a frame of the wrong size).
+pub fn write_apng(
+    w: &mut BufWriter<&File>,
+    dest: &Path,
+    width: u32,
+    height: u32,
+    frames: &[Vec<u8>],
+    fps: f64,
+) -> std::result::Result<(), OutputError> {
+    let enc = |e: png::EncodingError| OutputError::Encode {
+        path: dest.to_path_buf(),
+        message: e.to_string(),
+    };
+    let mut e = png::Encoder::new(w, width, height);
+    e.set_color(png::ColorType::Rgb);
+    e.set_depth(png::BitDepth::Eight);
+    e.set_animated(frames.len() as u32, 0).map_err(enc)?;
+    // Delay as a fraction: 1000 / (1000 fps) s, numerator and denominator within u16.
+    let den = (fps * 100.0).round().clamp(1.0, 65535.0) as u16;
+    e.set_frame_delay(100, den).map_err(enc)?;
+    let mut writer = e.write_header().map_err(enc)?;
+    for f in frames {
+        writer.write_image_data(f).map_err(enc)?;
+    }
+    writer.finish().map_err(enc)
+}
+
 /// Encodes 8-bit RGB display values (row-major, 3 per pixel) as PNG.
 ///
 /// # Panics

@@ -47,8 +47,11 @@ fn sample_pixel(
 ) {
     let index = y as u64 * scene.camera.width as u64 + x as u64;
     for _ in 0..count {
+        let time = scene.sample_time(seed, index, px.n as u64);
         let mut rng = Rng::for_sample(seed, index, px.n as u64);
-        let ray = scene.camera.generate_ray(x, y, rng.uniform2());
+        let ray = scene
+            .camera_at(time)
+            .generate_ray(x, y, rng.uniform2(), time);
         let r = integrator.radiance(scene, ray, &mut rng);
         *rays += r.rays as u64;
         let v = if r.radiance.is_finite() {
@@ -80,7 +83,7 @@ pub fn render_counts(
         integrator,
         film,
         counts,
-        scene.settings.seed,
+        scene.frame_seed(),
         progress,
     )
 }
@@ -154,10 +157,13 @@ pub fn render_albedo(scene: &Scene, spp: u32, seed: u64) -> Vec<f32> {
         for x in 0..w {
             let mut acc = glam::Vec3::ZERO;
             for k in 0..spp {
-                let mut rng = Rng::for_sample(seed, (y * w + x) as u64, k as u64);
-                let ray = scene
-                    .camera
-                    .generate_ray(x as u32, y as u32, rng.uniform2());
+                let index = (y * w + x) as u64;
+                let time = scene.sample_time(seed, index, k as u64);
+                let mut rng = Rng::for_sample(seed, index, k as u64);
+                let ray =
+                    scene
+                        .camera_at(time)
+                        .generate_ray(x as u32, y as u32, rng.uniform2(), time);
                 let a = crate::integrator::albedo(scene, ray, &mut rng);
                 if a.is_finite() {
                     acc += a;

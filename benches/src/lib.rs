@@ -31,6 +31,7 @@ pub fn terrain(n: usize) -> Vec<TriangleAttributes> {
                     uv: [Vec2::ZERO; 3],
                     material: 0,
                     light: u32::MAX,
+                    instance: aleph::geometry::STATIC_INSTANCE,
                 });
             }
         }

@@ -65,6 +65,40 @@ pub fn retinal_velocity(image_velocity_deg_s: f64) -> f64 {
     (vi - ve).abs().max(DRIFT_VELOCITY_DEG_S)
 }
 
+/// Where the eye is assumed to look when content moves (Daly 1998; Yee et al. 2001 §4).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum EyeTracking {
+    /// Every pixel's motion is assumed to be followed by smooth pursuit ([`retinal_velocity`]):
+    /// the conservative choice when the viewer's target is unknown, since it gives each pixel
+    /// the smallest retinal velocity any gaze could give it (Daly 1998; Yee et al. 2001).
+    #[default]
+    PerPixel,
+    /// The eye pursues one target whose image velocity is this vector (deg/s, x right, y
+    /// down), as Yee et al. 2001 assume for the salient object: the eye moves at
+    /// v_E = min(g_sp |v_T| + v_min, v_max) along v_T, and each pixel's retinal velocity is
+    /// |v_I − v_E|, clamped to ≥ the drift velocity.
+    Target([f64; 2]),
+}
+
+/// Retinal velocity (deg/s) of content moving at image velocity `v_i` (deg/s, a 2-D vector)
+/// under the eye-tracking assumption `eye` (Daly 1998 eq. 8, with the eye's velocity vector
+/// taken from the tracked target for [`EyeTracking::Target`]).
+pub fn retinal_velocity_tracked(v_i: [f64; 2], eye: EyeTracking) -> f64 {
+    match eye {
+        EyeTracking::PerPixel => retinal_velocity(v_i[0].hypot(v_i[1])),
+        EyeTracking::Target(t) => {
+            let speed = t[0].hypot(t[1]);
+            let (ex, ey) = if speed > 0.0 {
+                let ve = (PURSUIT_GAIN * speed + PURSUIT_MIN_DEG_S).min(PURSUIT_MAX_DEG_S);
+                (t[0] / speed * ve, t[1] / speed * ve)
+            } else {
+                (0.0, 0.0)
+            };
+            (v_i[0] - ex).hypot(v_i[1] - ey).max(DRIFT_VELOCITY_DEG_S)
+        }
+    }
+}
+
 /// Parameters of Daly's 1993 static CSF.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DalyCsfParams {
@@ -209,6 +243,17 @@ mod tests {
         assert_eq!(retinal_velocity(0.15 / 0.18), DRIFT_VELOCITY_DEG_S);
         // 10 deg/s: v_E = 8.35, v_R = 1.65.
         assert!((retinal_velocity(10.0) - 1.65).abs() < 1e-12);
+        // Tracking a target: the target itself keeps Daly's per-pixel residual, static content
+        // slips across the retina at the eye's own speed, and content moving against the
+        // target at the sum.
+        let eye = EyeTracking::Target([10.0, 0.0]);
+        assert!((retinal_velocity_tracked([10.0, 0.0], eye) - 1.65).abs() < 1e-12);
+        assert!((retinal_velocity_tracked([0.0, 0.0], eye) - 8.35).abs() < 1e-12);
+        assert!((retinal_velocity_tracked([-10.0, 0.0], eye) - 18.35).abs() < 1e-12);
+        assert_eq!(
+            retinal_velocity_tracked([3.0, 4.0], EyeTracking::PerPixel),
+            retinal_velocity(5.0)
+        );
         // Beyond pursuit's 80 deg/s limit the eye lags: 200 deg/s → v_R = 120.
         assert!((retinal_velocity(200.0) - 120.0).abs() < 1e-12);
     }

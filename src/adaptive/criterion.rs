@@ -12,6 +12,7 @@ use crate::film::Film;
 use crate::render::{RenderStats, render_albedo};
 use crate::scene::Scene;
 use perception::adaptation::{AdaptationMode, adaptation_luminance, log_average};
+use perception::csf::EyeTracking;
 use perception::photometry::luminance_image;
 use perception::threshold::ThresholdMapper;
 use rayon::prelude::*;
@@ -74,8 +75,12 @@ impl PerceptualCriterion {
         velocity: Option<Vec<f32>>,
     ) -> perception::Result<Self> {
         let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+        let mut view = s.tone.view;
+        if let Some(a) = scene.animation {
+            view = view.with_fps(a.fps)?;
+        }
         Ok(PerceptualCriterion {
-            mapper: ThresholdMapper::new(w, h, s.tone.view, s.threshold)?,
+            mapper: ThresholdMapper::new(w, h, view, s.threshold)?,
             velocity,
             state: None,
             guide_stats: None,
@@ -114,7 +119,6 @@ impl PerceptualCriterion {
             1.0
         };
         let g_lum: Vec<f32> = a_lum.iter().map(|&v| v * k).collect();
-        let map = self.mapper.compute(&g_lum, self.velocity.as_deref())?;
         let saliency = if s.saliency_weight > 0.0 {
             let display = match frozen {
                 Some(f) => f.map(mean)?,
@@ -124,11 +128,37 @@ impl PerceptualCriterion {
         } else {
             None
         };
+        let eye = match (&saliency, &self.velocity) {
+            (Some(sal), Some(v)) => self.tracked_target(sal, v),
+            _ => EyeTracking::PerPixel,
+        };
+        let map = self
+            .mapper
+            .compute_tracked(&g_lum, self.velocity.as_deref(), eye)?;
         self.state = Some(GuideState {
             noise_contrast: map.noise_contrast,
             saliency,
         });
         Ok(guide_time)
+    }
+
+    /// The eye is assumed to pursue the salient object (Yee et al. 2001): the image velocity
+    /// (deg/s) of the pixels whose saliency is at least half the maximum, weighted by saliency.
+    fn tracked_target(&self, saliency: &[f32], motion: &[f32]) -> EyeTracking {
+        let max = saliency.iter().cloned().fold(0.0f32, f32::max);
+        let (mut sx, mut sy, mut sw) = (0.0f64, 0.0f64, 0.0f64);
+        for (&s, d) in saliency.iter().zip(motion.chunks_exact(2)) {
+            if max > 0.0 && s >= 0.5 * max {
+                sx += s as f64 * d[0] as f64;
+                sy += s as f64 * d[1] as f64;
+                sw += s as f64;
+            }
+        }
+        if sw <= 0.0 {
+            return EyeTracking::PerPixel;
+        }
+        let k = self.mapper.viewing().velocity_deg_s(1.0);
+        EyeTracking::Target([sx / sw * k, sy / sw * k])
     }
 
     /// Error estimate per pixel in visibility units, before the 3×3 pooling.

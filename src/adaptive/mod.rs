@@ -51,6 +51,7 @@ use crate::film::Film;
 use crate::integrator::{Integrator, Strategy};
 use crate::render::{RenderStats, render_counts};
 use crate::scene::Scene;
+use crate::velocity::{VelocityMap, render_velocity};
 use allocate::{allocate, fit_to_budget};
 use criterion::{Criterion, PerceptualCriterion, VarianceCriterion};
 use perception::threshold::ThresholdParams;
@@ -160,6 +161,9 @@ pub struct AdaptiveSettings {
     pub error_estimate: ErrorEstimate,
     /// Samples per pixel of the albedo guide (default 4; only antialiasing needs them).
     pub guide_spp: u32,
+    /// Whether the perceptual threshold takes the frame's velocity map (default true; only
+    /// sequences have one): moving content is seen through the spatiovelocity CSF.
+    pub use_velocity: bool,
 }
 
 impl Default for AdaptiveSettings {
@@ -182,6 +186,7 @@ impl Default for AdaptiveSettings {
             guide_spp: 4,
             error_estimate: ErrorEstimate::HalfBuffers,
             saliency_weight: 0.0,
+            use_velocity: true,
         }
     }
 }
@@ -224,6 +229,8 @@ pub struct AdaptiveResult {
     pub decision_time: Duration,
     /// Total wall time, guide and decisions included.
     pub wall: Duration,
+    /// The frame's velocity map (sequences only), whatever the sampler.
+    pub velocity: Option<VelocityMap>,
 }
 
 impl AdaptiveResult {
@@ -278,6 +285,7 @@ pub fn render_adaptive(
         max_depth: scene.settings.max_depth,
         strategy: Strategy::Mis,
     };
+    let velocity = render_velocity(scene);
     let mut st = LoopState {
         film: Film::new(scene.camera.width, scene.camera.height),
         stats: RenderStats::default(),
@@ -286,14 +294,9 @@ pub fn render_adaptive(
         decision_time: Duration::ZERO,
     };
     if s.sampler == SamplerKind::Uniform {
-        return Ok(render_uniform_budget(
-            scene,
-            s,
-            st,
-            progress,
-            sample_progress,
-            start,
-        ));
+        let mut r = render_uniform_budget(scene, s, st, progress, sample_progress, start);
+        r.velocity = velocity;
+        return Ok(r);
     }
     let n_px = st.film.len();
     let budget_total = s.budget_spp.map(|b| (b * n_px as f64).round() as u64);
@@ -306,7 +309,11 @@ pub fn render_adaptive(
     st.stats += render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
     let mut criterion = match s.sampler {
         SamplerKind::Perceptual => {
-            Criterion::Perceptual(Box::new(PerceptualCriterion::new(scene, s, None)?))
+            let motion = velocity
+                .as_ref()
+                .filter(|_| s.use_velocity)
+                .map(|v| v.motion_px_per_frame());
+            Criterion::Perceptual(Box::new(PerceptualCriterion::new(scene, s, motion)?))
         }
         _ => Criterion::Variance(VarianceCriterion::new(&st.film, s.variance_threshold)),
     };
@@ -362,6 +369,7 @@ pub fn render_adaptive(
         units,
         decision_time: st.decision_time,
         wall: start.elapsed(),
+        velocity,
     })
 }
 
@@ -442,5 +450,6 @@ fn render_uniform_budget(
         units: "",
         decision_time: Duration::ZERO,
         wall: start.elapsed(),
+        velocity: None,
     }
 }

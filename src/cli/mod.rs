@@ -3,6 +3,7 @@
 
 mod diff;
 mod render;
+mod sequence;
 mod speedup;
 mod tonemap;
 

@@ -150,6 +150,10 @@ pub struct SamplingArgs {
     /// 67.0 ppd).
     #[arg(long, value_name = "PPD", help_heading = "Adaptive sampling")]
     pub ppd: Option<f64>,
+    /// Sequences: ignore the velocity map in the perceptual threshold (judge every frame as a
+    /// still; for comparisons).
+    #[arg(long, help_heading = "Adaptive sampling")]
+    pub no_velocity: bool,
 }
 
 impl SamplingArgs {
@@ -209,6 +213,7 @@ impl SamplingArgs {
             sampler,
             threshold,
             saliency_weight: self.saliency,
+            use_velocity: !self.no_velocity,
             error_estimate: match self.error_estimate {
                 ErrorEstimateArg::HalfBuffers => ErrorEstimate::HalfBuffers,
                 ErrorEstimateArg::StandardError => ErrorEstimate::StandardError,
@@ -231,33 +236,34 @@ impl SamplingArgs {
 }
 
 #[derive(Args, Debug)]
+#[command(group(clap::ArgGroup::new("frame_choice").args(["frames", "frame"])))]
 pub struct RenderArgs {
     /// Scene file (TOML, see docs/scene-format.md). Default: the bundled Cornell box.
-    scene: Option<PathBuf>,
+    pub(super) scene: Option<PathBuf>,
     /// Output path without extension: writes OUT.exr and OUT.png. Default: the scene's name
     /// in the current directory.
     #[arg(short, long, value_name = "OUT")]
-    output: Option<PathBuf>,
+    pub(super) output: Option<PathBuf>,
     /// Sampler: perceptual (default) runs until the noise is invisible; uniform and variance are
     /// the baselines.
     #[arg(long, value_enum, default_value = "perceptual")]
-    sampler: SamplerArg,
+    pub(super) sampler: SamplerArg,
     /// Average samples per pixel (N × pixels in total, for every sampler). Without it,
     /// perceptual and variance run until converged and uniform uses the scene's render.spp.
     #[arg(long, value_name = "N")]
-    spp: Option<f64>,
+    pub(super) spp: Option<f64>,
     /// Random seed (overrides render.seed).
     #[arg(long, value_name = "S")]
-    seed: Option<u64>,
+    pub(super) seed: Option<u64>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, value_name = "N")]
-    threads: Option<usize>,
+    pub(super) threads: Option<usize>,
     /// Image size WIDTHxHEIGHT (overrides camera.resolution).
     #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
-    resolution: Option<(u32, u32)>,
+    pub(super) resolution: Option<(u32, u32)>,
     /// Maximum path depth (overrides render.max_depth).
     #[arg(long, value_name = "N")]
-    max_depth: Option<u32>,
+    pub(super) max_depth: Option<u32>,
     /// Exposure of the PNG in stops (radiance × 2^EV before sRGB encoding) when no --tonemap is
     /// given. Default: automatic, mapping the log-average luminance to 0.18 (also the curve the
     /// perceptual sampler judges with).
@@ -267,19 +273,32 @@ pub struct RenderArgs {
         allow_negative_numbers = true,
         conflicts_with = "tonemap"
     )]
-    exposure: Option<f32>,
+    pub(super) exposure: Option<f32>,
     /// Tone operator for the PNG (the EXR stays linear) and for display visibility. Luminance is
     /// radiance × the scene's render.luminance_scale.
     #[arg(long, value_enum, value_name = "OP")]
-    tonemap: Option<OperatorArg>,
+    pub(super) tonemap: Option<OperatorArg>,
     /// Also write false-colour PNGs: OUT.spp.png (samples per pixel, log scale) and
     /// OUT.ratio.png (error / threshold, log scale from 1/16 to 16).
     #[arg(long)]
-    aov: bool,
+    pub(super) aov: bool,
+    /// Frames of an animated scene to render, FIRST-LAST (inclusive; default: the scene's whole
+    /// [animation] range). Outputs are numbered OUT.0001.exr, OUT.0001.png, …, plus
+    /// OUT.preview.png (an animated PNG) and OUT.filmstrip.png.
+    #[arg(long, value_name = "A-B", value_parser = parse_frames, help_heading = "Sequences")]
+    pub(super) frames: Option<(i64, i64)>,
+    /// One frame of an animated scene (the same image as inside the sequence).
+    #[arg(
+        long,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Sequences"
+    )]
+    pub(super) frame: Option<i64>,
     #[command(flatten)]
-    sampling: SamplingArgs,
+    pub(super) sampling: SamplingArgs,
     #[command(flatten)]
-    tone: ToneArgs,
+    pub(super) tone: ToneArgs,
 }
 
 /// Output stem: explicit, or the scene's name (its directory's name for `scene.toml`).
@@ -337,13 +356,51 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     with_threads(args.threads, move || render_and_write(desc, &stem, &args))?
 }
 
+/// Parses `A-B`, `A..B` or a single frame `N`.
+fn parse_frames(s: &str) -> Result<(i64, i64), String> {
+    let t = s.trim();
+    let pair = t.split_once("..").or_else(|| {
+        t.get(1..)
+            .and_then(|r| r.split_once('-'))
+            .map(|(a, b)| (&t[..a.len() + 1], b))
+    });
+    let (a, b) = pair.unwrap_or((t, t));
+    let num = |v: &str| {
+        v.trim()
+            .parse::<i64>()
+            .map_err(|_| format!("expected FIRST-LAST frame numbers, got {s:?}"))
+    };
+    let (a, b) = (num(a)?, num(b)?);
+    if a > b {
+        return Err(format!("the first frame ({a}) is after the last ({b})"));
+    }
+    Ok((a, b))
+}
+
 fn render_and_write(
     desc: SceneDescription,
     stem: &Path,
     args: &RenderArgs,
 ) -> anyhow::Result<ExitCode> {
-    let scene = Scene::load_description(desc)?;
-    let (w, h) = (scene.camera.width, scene.camera.height);
+    let mut scene = Scene::load_description(desc)?;
+    let range = match (args.frames, args.frame, scene.animation) {
+        (Some(r), _, _) => Some(r),
+        (_, Some(f), _) => Some((f, f)),
+        (None, None, Some(a)) => Some((a.frame_start, a.frame_end)),
+        (None, None, None) => None,
+    };
+    if let Some((first, last)) = range {
+        if scene.animation.is_none() {
+            bail!(
+                "{}: --frames/--frame need an animated scene (this one has no [animation] table)",
+                scene.path.display()
+            );
+        }
+        scene.set_frame(first)?;
+        scene.set_frame(last)?;
+        return super::sequence::render_sequence(&mut scene, first, last, stem, args);
+    }
+    let w = scene.camera.width;
     let op = args
         .tonemap
         .map(Operator::from)
@@ -354,32 +411,64 @@ fn render_and_write(
     let settings =
         args.sampling
             .settings(args.sampler.into(), args.spp, scene.settings.spp, tone)?;
-
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
     bar.set_style(ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap());
     bar.enable_steady_tick(Duration::from_millis(200));
+    let result = render_with_progress(&scene, &settings, &bar, "")?;
+    bar.finish_and_clear();
+    let look = match args.tonemap {
+        Some(_) => Look::Tone(settings.tone),
+        None => Look::Exposure(args.exposure),
+    };
+    let written = write_outputs(&scene, stem, args, &settings, &result, look)?;
+    println!(
+        "{}",
+        summary_line(&scene, &settings, &result, stem, &written.look)
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Runs the adaptive loop with a spinner message per pass (`prefix` before it).
+pub(super) fn render_with_progress(
+    scene: &Scene,
+    settings: &AdaptiveSettings,
+    bar: &ProgressBar,
+    prefix: &str,
+) -> anyhow::Result<AdaptiveResult> {
     let name = settings.sampler.name();
-    let result = render_adaptive(
-        &scene,
-        &settings,
+    Ok(render_adaptive(
+        scene,
+        settings,
         &|p| {
             bar.set_message(format!(
-                "{name}: pass {}, {:.1} spp mean, {:.1} % converged",
+                "{prefix}{name}: pass {}, {:.1} spp mean, {:.1} % converged",
                 p.pass,
                 p.mean_spp,
                 100.0 * p.converged_fraction
             ))
         },
         &|_| {},
-    )?;
-    bar.finish_and_clear();
-    let look = write_outputs(&scene, stem, args, &settings, &result)?;
+    )?)
+}
 
+/// The one-line summary of a render.
+pub(super) fn summary_line(
+    scene: &Scene,
+    settings: &AdaptiveSettings,
+    result: &AdaptiveResult,
+    stem: &Path,
+    look: &str,
+) -> String {
+    let (w, h) = (scene.camera.width, scene.camera.height);
     let secs = result.wall.as_secs_f64().max(1e-9);
     let st = &result.stats;
     let guide = result.guide_stats.map(|g| g.samples).unwrap_or(0);
-    println!(
-        "{}: {w}×{h}, {} sampler, {:.1} spp mean ({} passes{}), {}, {:.1} % of pixels below threshold, \
+    let frame = match scene.animation {
+        Some(_) => format!(" frame {}", scene.frame.index),
+        None => String::new(),
+    };
+    format!(
+        "{}{frame}: {w}×{h}, {} sampler, {:.1} spp mean ({} passes{}), {}, {:.1} % of pixels below threshold, \
          {:.2} s ({:.2} s perception), {:.2} M samples/s, {:.2} M rays/s, {} non-finite samples dropped, \
          viewer at {:.1} pixels per degree -> {}, {} ({look})",
         scene.path.display(),
@@ -401,23 +490,34 @@ fn render_and_write(
         settings.tone.view.ppd,
         with_ext(stem, "exr").display(),
         with_ext(stem, "png").display(),
-    );
-    Ok(ExitCode::SUCCESS)
+    )
 }
 
-fn write_outputs(
+/// How the PNG is made from the linear image.
+pub(super) enum Look {
+    /// A tone operator (with its adaptation state, in a sequence).
+    Tone(ToneMapSettings),
+    /// Exposure in stops, or automatic (log average to 0.18).
+    Exposure(Option<f32>),
+}
+
+/// What [`write_outputs`] wrote.
+pub(super) struct Written {
+    /// The display image (8-bit sRGB).
+    pub display: Vec<u8>,
+    /// Words for the summary: the exposure or the operator.
+    pub look: String,
+}
+
+/// Extra EXR channels (name, samples) and header attributes (name, text).
+type ExrLayers = (Vec<(String, ChannelData)>, Vec<(String, String)>);
+
+/// EXR attributes and extra channels of a render.
+fn exr_layers(
     scene: &Scene,
-    stem: &Path,
-    args: &RenderArgs,
     settings: &AdaptiveSettings,
     result: &AdaptiveResult,
-) -> anyhow::Result<String> {
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    let film = &result.film;
-    let rgb = film.mean_rgb();
-    let exr_path = with_ext(stem, "exr");
-    let png_path = with_ext(stem, "png");
-    let mut out = AtomicOutputs::new();
+) -> ExrLayers {
     let mut attributes = vec![
         (
             "radianceUnits".to_string(),
@@ -427,23 +527,55 @@ fn write_outputs(
         ("scene".to_string(), scene.path.display().to_string()),
         ("sampler".to_string(), settings.sampler.name().to_string()),
     ];
-    let mut extra = vec![("spp".to_string(), ChannelData::U32(film.spp()))];
+    let mut extra = vec![("spp".to_string(), ChannelData::U32(result.film.spp()))];
     if let (Some(t), Some(e)) = (&result.threshold, &result.error) {
         extra.push(("Threshold.Y".to_string(), ChannelData::F32(t.clone())));
         extra.push(("Error.Y".to_string(), ChannelData::F32(e.clone())));
         attributes.push(("thresholdUnits".to_string(), result.units.to_string()));
         attributes.push(("errorUnits".to_string(), result.units.to_string()));
     }
+    if let (Some(v), Some(a)) = (&result.velocity, scene.animation) {
+        for (c, name) in ["X", "Y", "Z", "W"].iter().enumerate() {
+            extra.push((format!("Vector.{name}"), ChannelData::F32(v.channel(c))));
+        }
+        attributes.push((
+            "vectorUnits".to_string(),
+            "pixels per frame, y up (Blender's Vector pass): X,Y = p(t-1) - p(t), \
+             Z,W = p(t) - p(t+1)"
+                .to_string(),
+        ));
+        attributes.push(("alephFrame".to_string(), scene.frame.index.to_string()));
+        attributes.push(("alephFps".to_string(), a.fps.to_string()));
+        attributes.push(("alephShutter".to_string(), a.shutter.to_string()));
+    }
+    (extra, attributes)
+}
+
+pub(super) fn write_outputs(
+    scene: &Scene,
+    stem: &Path,
+    args: &RenderArgs,
+    settings: &AdaptiveSettings,
+    result: &AdaptiveResult,
+    look: Look,
+) -> anyhow::Result<Written> {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let film = &result.film;
+    let rgb = film.mean_rgb();
+    let exr_path = with_ext(stem, "exr");
+    let png_path = with_ext(stem, "png");
+    let mut out = AtomicOutputs::new();
+    let (extra, attributes) = exr_layers(scene, settings, result);
     out.stage(&exr_path, |wr| {
         write_exr(wr, &exr_path, w, h, &rgb, &extra, &attributes)
     })?;
-    let (display, look) = match args.tonemap {
-        Some(_) => (
-            encode_srgb8(&tone_map(&rgb, w as usize, h as usize, &settings.tone)?),
-            format!("tone operator {}", settings.tone.operator.name()),
+    let (display, look) = match look {
+        Look::Tone(tone) => (
+            encode_srgb8(&tone_map(&rgb, w as usize, h as usize, &tone)?),
+            format!("tone operator {}", tone.operator.name()),
         ),
-        None => {
-            let ev = args.exposure.unwrap_or_else(|| auto_exposure_ev(&rgb));
+        Look::Exposure(ev) => {
+            let ev = ev.unwrap_or_else(|| auto_exposure_ev(&rgb));
             (encode_srgb8(&expose(&rgb, ev)), format!("{ev:+.2} EV"))
         }
     };
@@ -465,5 +597,5 @@ fn write_outputs(
         }
     }
     out.commit().context("writing outputs")?;
-    Ok(look)
+    Ok(Written { display, look })
 }

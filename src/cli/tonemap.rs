@@ -103,6 +103,7 @@ impl ToneArgs {
             view,
             display,
             luminance_scale,
+            adaptation_state: None,
         })
     }
 }

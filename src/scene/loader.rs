@@ -1,9 +1,13 @@
 //! Reading the TOML scene description and its OBJ/MTL files.
 
 use super::{RenderSettings, Scene};
+use crate::animation::{
+    AnimationSettings, CameraKey, CameraTrack, DEFAULT_SHUTTER, FrameTime, TransformKey,
+    TransformTrack,
+};
 use crate::camera::Camera;
 use crate::error::{SceneError, SceneResult};
-use crate::geometry::{Geometry, TriangleAttributes};
+use crate::geometry::{Geometry, STATIC_INSTANCE, TriangleAttributes};
 use crate::light::Lights;
 use crate::material::{ColorSource, Material, MaterialKind};
 use crate::texture::Texture;
@@ -32,6 +36,9 @@ pub struct SceneDescription {
     /// `[[light]]` entries.
     #[serde(default, rename = "light")]
     pub lights: Vec<LightDesc>,
+    /// `[animation]`: makes the scene a sequence.
+    #[serde(default)]
+    pub animation: Option<AnimationDesc>,
     /// The scene file (set by [`SceneDescription::read`]).
     #[serde(skip)]
     pub path: PathBuf,
@@ -52,6 +59,55 @@ pub struct CameraDesc {
     pub vfov_deg: f32,
     /// Width and height in pixels, each in 1..=65536.
     pub resolution: [u32; 2],
+    /// `[[camera.keys]]`: keyframes; a missing value holds the previous key's (the first key's
+    /// default to the table's own).
+    #[serde(default)]
+    pub keys: Vec<CameraKeyDesc>,
+}
+
+/// `[[camera.keys]]`: the camera at one time.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraKeyDesc {
+    /// Time, seconds.
+    pub time: f64,
+    /// Eye position.
+    pub position: Option<[f32; 3]>,
+    /// Point looked at.
+    pub look_at: Option<[f32; 3]>,
+    /// Up vector.
+    pub up: Option<[f32; 3]>,
+    /// Vertical field of view, degrees.
+    pub vfov_deg: Option<f32>,
+}
+
+/// `[animation]`: the sequence's timing.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnimationDesc {
+    /// Frames per second, > 0.
+    pub fps: f64,
+    /// First and last frame, inclusive.
+    pub frames: [i64; 2],
+    /// Shutter interval as a fraction of the frame, in [0, 1] (default 0.5, a 180° shutter;
+    /// 0: no motion blur).
+    pub shutter: Option<f64>,
+}
+
+/// `[[mesh.keys]]`: the mesh's motion at one time, applied after its `transform`: scale, then
+/// rotation, then translation. A missing value holds the previous key's (identity for the
+/// first key).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformKeyDesc {
+    /// Time, seconds.
+    pub time: f64,
+    /// Translation.
+    pub translate: Option<[f32; 3]>,
+    /// Rotations about x, then y, then z, degrees.
+    pub rotate_deg: Option<[f32; 3]>,
+    /// Uniform or per-axis scale.
+    pub scale: Option<ScaleDesc>,
 }
 
 fn default_up() -> [f32; 3] {
@@ -81,6 +137,15 @@ pub struct MeshDesc {
     /// Object-to-world transform.
     #[serde(default)]
     pub transform: Option<TransformDesc>,
+    /// Keyframed rigid motion after `transform` (needs `[animation]`).
+    #[serde(default)]
+    pub keys: Vec<TransformKeyDesc>,
+    /// Only these OBJ objects/groups (by `o`/`g` name); default: all.
+    #[serde(default)]
+    pub objects: Option<Vec<String>>,
+    /// Leave out these OBJ objects/groups.
+    #[serde(default)]
+    pub exclude_objects: Vec<String>,
 }
 
 /// A transform: scale, then rotations about x, y, z (degrees), then translation; or a full
@@ -222,11 +287,29 @@ impl SceneDescription {
                 settings.luminance_scale
             )));
         }
+        let animation = self.animation()?;
+        let camera_track = self.camera_track(animation.as_ref())?;
         let base = self.path.parent().unwrap_or(Path::new("")).to_path_buf();
         let mut b = Builder::default();
+        let mut tracks = Vec::new();
         for (i, mesh) in self.meshes.iter().enumerate() {
             let xf = self.transform(i, mesh.transform.as_ref())?;
-            b.load_obj(&base.join(&mesh.file), xf)?;
+            let track = self.mesh_track(i, mesh, animation.as_ref())?;
+            let instance = match track {
+                Some(_) => tracks.len() as u32,
+                None => STATIC_INSTANCE,
+            };
+            let before = b.tris.len();
+            let select = ObjectFilter {
+                only: mesh.objects.as_deref(),
+                exclude: &mesh.exclude_objects,
+            };
+            b.load_obj(&base.join(&mesh.file), xf, instance, &select)?;
+            if let Some(track) = track
+                && b.tris.len() > before
+            {
+                tracks.push(track);
+            }
         }
         for (name, ov) in &self.materials {
             let Some(&idx) = b.material_index.get(name) else {
@@ -282,6 +365,7 @@ impl SceneDescription {
                             uv: [Vec2::ZERO; 3],
                             material: mat,
                             light: u32::MAX,
+                            instance: STATIC_INSTANCE,
                         });
                     }
                 }
@@ -295,8 +379,15 @@ impl SceneDescription {
                 path: self.path.clone(),
             }
         })?;
-        let geometry = Geometry::new(b.tris);
-        Ok(Scene {
+        let time_range = match animation {
+            Some(a) => (
+                a.frame(a.frame_start).open_s as f32,
+                a.frame(a.frame_end).close_s as f32,
+            ),
+            None => (0.0, 0.0),
+        };
+        let geometry = Geometry::with_instances(b.tris, tracks, time_range);
+        let mut scene = Scene {
             camera,
             settings,
             geometry,
@@ -304,7 +395,198 @@ impl SceneDescription {
             textures: b.textures,
             lights,
             path: self.path,
-        })
+            animation,
+            camera_track,
+            frame: FrameTime::STILL,
+        };
+        if let Some(a) = animation {
+            scene.set_frame(a.frame_start)?;
+        }
+        Ok(scene)
+    }
+
+    /// `[animation]`, validated.
+    fn animation(&self) -> SceneResult<Option<AnimationSettings>> {
+        let Some(a) = &self.animation else {
+            let keyed = self
+                .meshes
+                .iter()
+                .position(|m| !m.keys.is_empty())
+                .map(|i| format!("[[mesh]] #{}", i + 1))
+                .or_else(|| (!self.camera.keys.is_empty()).then(|| "[camera]".to_string()));
+            if let Some(who) = keyed {
+                return Err(self.invalid(format!(
+                    "{who} has keys but the scene has no [animation] table (fps and frames)"
+                )));
+            }
+            return Ok(None);
+        };
+        if !(a.fps.is_finite() && a.fps > 0.0) {
+            return Err(self.invalid(format!(
+                "animation.fps must be a positive number, got {}",
+                a.fps
+            )));
+        }
+        let [first, last] = a.frames;
+        if first > last {
+            return Err(self.invalid(format!(
+                "animation.frames = [{first}, {last}]: the first frame is after the last"
+            )));
+        }
+        let shutter = a.shutter.unwrap_or(DEFAULT_SHUTTER);
+        if !(0.0..=1.0).contains(&shutter) {
+            return Err(self.invalid(format!(
+                "animation.shutter must be in [0, 1] (a fraction of the frame), got {shutter}"
+            )));
+        }
+        Ok(Some(AnimationSettings {
+            fps: a.fps,
+            frame_start: first,
+            frame_end: last,
+            shutter,
+        }))
+    }
+
+    /// Checks that key times are finite and strictly increasing, and that every frame's instant
+    /// lies within the keys (when there are two or more).
+    fn check_key_times(
+        &self,
+        who: &str,
+        times: &[f64],
+        anim: Option<&AnimationSettings>,
+    ) -> SceneResult<()> {
+        for (k, &t) in times.iter().enumerate() {
+            if !t.is_finite() {
+                return Err(self.invalid(format!("{who} key {}: time must be finite", k + 1)));
+            }
+            if k > 0 && t <= times[k - 1] {
+                return Err(self.invalid(format!(
+                    "{who} key {} (time {t} s) is not after key {} (time {} s): key times must \
+                     be strictly increasing, without duplicates",
+                    k + 1,
+                    k,
+                    times[k - 1]
+                )));
+            }
+        }
+        if let (Some(a), [t0, .., t1]) = (anim, times) {
+            let (f0, f1) = (a.frame(a.frame_start).time_s, a.frame(a.frame_end).time_s);
+            if f0 < *t0 - 1e-9 || f1 > *t1 + 1e-9 {
+                return Err(self.invalid(format!(
+                    "frames {}-{} ({f0:.4}-{f1:.4} s at {} fps) fall outside the keys of {who} \
+                     ({t0}-{t1} s)",
+                    a.frame_start, a.frame_end, a.fps
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// `[[camera.keys]]` as a track (missing values held from the previous key).
+    fn camera_track(&self, anim: Option<&AnimationSettings>) -> SceneResult<Option<CameraTrack>> {
+        let c = &self.camera;
+        if c.keys.is_empty() {
+            return Ok(None);
+        }
+        let times: Vec<f64> = c.keys.iter().map(|k| k.time).collect();
+        self.check_key_times("[camera]", &times, anim)?;
+        let mut prev = CameraKey {
+            time_s: 0.0,
+            position: c.position.into(),
+            look_at: c.look_at.into(),
+            up: c.up.into(),
+            vfov_deg: c.vfov_deg,
+        };
+        let mut keys = Vec::with_capacity(c.keys.len());
+        for (k, d) in c.keys.iter().enumerate() {
+            let key = CameraKey {
+                time_s: d.time as f32,
+                position: d.position.map(Vec3::from).unwrap_or(prev.position),
+                look_at: d.look_at.map(Vec3::from).unwrap_or(prev.look_at),
+                up: d.up.map(Vec3::from).unwrap_or(prev.up),
+                vfov_deg: d.vfov_deg.unwrap_or(prev.vfov_deg),
+            };
+            let vals = key
+                .position
+                .to_array()
+                .into_iter()
+                .chain(key.look_at.to_array());
+            if vals.chain(key.up.to_array()).any(|v| !v.is_finite()) {
+                return Err(self.invalid(format!("[camera] key {}: values must be finite", k + 1)));
+            }
+            if !(key.vfov_deg > 0.0 && key.vfov_deg < 180.0) {
+                return Err(self.invalid(format!(
+                    "[camera] key {}: vfov_deg must be in (0, 180) degrees, got {}",
+                    k + 1,
+                    key.vfov_deg
+                )));
+            }
+            if Camera::from_key(&key, 1, 1).is_none() {
+                return Err(self.invalid(format!(
+                    "[camera] key {}: look_at must differ from position and not be parallel to up",
+                    k + 1
+                )));
+            }
+            keys.push(key);
+            prev = key;
+        }
+        Ok(Some(CameraTrack::new(keys).expect("times checked")))
+    }
+
+    /// `[[mesh.keys]]` of mesh `i` as a track (missing values held from the previous key).
+    fn mesh_track(
+        &self,
+        i: usize,
+        mesh: &MeshDesc,
+        anim: Option<&AnimationSettings>,
+    ) -> SceneResult<Option<TransformTrack>> {
+        if mesh.keys.is_empty() {
+            return Ok(None);
+        }
+        let who = format!("[[mesh]] #{}", i + 1);
+        let times: Vec<f64> = mesh.keys.iter().map(|k| k.time).collect();
+        self.check_key_times(&who, &times, anim)?;
+        let mut prev = TransformKey {
+            time_s: 0.0,
+            translate: Vec3::ZERO,
+            rotate: Quat::IDENTITY,
+            scale: Vec3::ONE,
+        };
+        let mut keys = Vec::with_capacity(mesh.keys.len());
+        for (k, d) in mesh.keys.iter().enumerate() {
+            let rotate = match d.rotate_deg {
+                Some(r) => {
+                    Quat::from_rotation_z(r[2].to_radians())
+                        * Quat::from_rotation_y(r[1].to_radians())
+                        * Quat::from_rotation_x(r[0].to_radians())
+                }
+                None => prev.rotate,
+            };
+            let scale = match &d.scale {
+                None => prev.scale,
+                Some(ScaleDesc::Uniform(s)) => Vec3::splat(*s),
+                Some(ScaleDesc::PerAxis(s)) => Vec3::from(*s),
+            };
+            let key = TransformKey {
+                time_s: d.time as f32,
+                translate: d.translate.map(Vec3::from).unwrap_or(prev.translate),
+                rotate,
+                scale,
+            };
+            if !(key.translate.is_finite() && key.rotate.is_finite() && key.scale.is_finite()) {
+                return Err(self.invalid(format!("{who} key {}: values must be finite", k + 1)));
+            }
+            if key.scale.abs().min_element() < 1e-6 {
+                return Err(self.invalid(format!(
+                    "{who} key {}: scale must be non-zero on every axis, got {}",
+                    k + 1,
+                    key.scale
+                )));
+            }
+            keys.push(key);
+            prev = key;
+        }
+        Ok(Some(TransformTrack::new(keys).expect("times checked")))
     }
 
     fn camera(&self) -> SceneResult<Camera> {
@@ -502,6 +784,33 @@ pub fn parse_texture_spec(s: &str) -> Option<TextureSpec> {
     })
 }
 
+/// Which objects of an OBJ file a `[[mesh]]` takes.
+struct ObjectFilter<'a> {
+    only: Option<&'a [String]>,
+    exclude: &'a [String],
+}
+
+impl ObjectFilter<'_> {
+    fn keeps(&self, name: &str) -> bool {
+        self.only.is_none_or(|o| o.iter().any(|n| n == name))
+            && !self.exclude.iter().any(|n| n == name)
+    }
+
+    /// Every name given must exist in the file.
+    fn check(&self, models: &[tobj::Model]) -> Result<(), String> {
+        let names: Vec<&str> = models.iter().map(|m| m.name.as_str()).collect();
+        let given = self.only.unwrap_or(&[]).iter().chain(self.exclude);
+        for n in given {
+            if !names.contains(&n.as_str()) {
+                return Err(format!(
+                    "no object or group is named {n:?} (the file has {names:?})"
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 #[derive(Default)]
 struct Builder {
     tris: Vec<TriangleAttributes>,
@@ -641,7 +950,13 @@ impl Builder {
         })
     }
 
-    fn load_obj(&mut self, path: &Path, xf: Mat4) -> SceneResult<()> {
+    fn load_obj(
+        &mut self,
+        path: &Path,
+        xf: Mat4,
+        instance: u32,
+        select: &ObjectFilter,
+    ) -> SceneResult<()> {
         let obj_err = |message: String| SceneError::Obj {
             path: path.to_path_buf(),
             message,
@@ -693,7 +1008,8 @@ impl Builder {
             local_to_global.push(idx);
         }
         let normal_xf = Mat3::from_mat4(xf).inverse().transpose();
-        for model in &models {
+        select.check(&models).map_err(obj_err)?;
+        for model in models.iter().filter(|m| select.keeps(&m.name)) {
             let mesh = &model.mesh;
             let material = match mesh.material_id {
                 Some(id) if id < local_to_global.len() => local_to_global[id],
@@ -758,6 +1074,7 @@ impl Builder {
                     uv,
                     material,
                     light: u32::MAX,
+                    instance,
                 });
             }
         }

@@ -36,13 +36,17 @@ mod loader;
 
 pub use loader::{SceneDescription, parse_texture_spec};
 
+use crate::animation::{AnimationSettings, CameraTrack, FrameTime};
 use crate::camera::Camera;
-use crate::error::SceneResult;
+use crate::error::{SceneError, SceneResult};
 use crate::geometry::Geometry;
 use crate::light::Lights;
 use crate::material::Material;
 use crate::texture::Texture;
 use std::path::{Path, PathBuf};
+
+/// Key of the shutter-time stream (independent of the path's stream).
+const TIME_STREAM_KEY: u64 = 0xBB67_AE85_84CA_A73B;
 
 /// Render settings from the scene's `[render]` table (command-line flags may override them).
 #[derive(Clone, Debug, PartialEq)]
@@ -86,6 +90,13 @@ pub struct Scene {
     pub lights: Lights,
     /// The scene file this came from.
     pub path: PathBuf,
+    /// `[animation]`, if the scene is a sequence.
+    pub animation: Option<AnimationSettings>,
+    /// The camera's keys, if it moves (`camera` is then its pose at the current frame's
+    /// instant).
+    pub camera_track: Option<CameraTrack>,
+    /// The frame being rendered ([`FrameTime::STILL`] for a still).
+    pub frame: FrameTime,
 }
 
 impl Scene {
@@ -99,9 +110,81 @@ impl Scene {
         SceneDescription::read(path)?.build()
     }
 
-    /// The seed of the current frame's random streams: the render seed for a still.
+    /// The seed of the current frame's random streams: the render seed for a still, and the
+    /// render seed mixed with the frame number in a sequence ([`FrameTime::seed`]).
     pub fn frame_seed(&self) -> u64 {
-        self.settings.seed
+        match self.animation {
+            Some(_) => self.frame.seed(self.settings.seed),
+            None => self.settings.seed,
+        }
+    }
+
+    /// Makes `index` the current frame: its shutter, its seed and its camera.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] if the scene has no `[animation]` (and `index` is not 0) or
+    /// `index` is outside its frame range.
+    pub fn set_frame(&mut self, index: i64) -> SceneResult<()> {
+        let invalid = |message: String| SceneError::Invalid {
+            path: self.path.clone(),
+            message,
+        };
+        let Some(anim) = self.animation else {
+            if index == 0 {
+                return Ok(());
+            }
+            return Err(invalid(format!(
+                "frame {index}: the scene is a still (it has no [animation] table)"
+            )));
+        };
+        if !anim.contains(index) {
+            return Err(invalid(format!(
+                "frame {index} is outside the scene's frame range {}-{}",
+                anim.frame_start, anim.frame_end
+            )));
+        }
+        self.frame = anim.frame(index);
+        if let Some(track) = &self.camera_track {
+            self.camera = Camera::from_key(
+                &track.at(self.frame.time_s as f32),
+                self.camera.width,
+                self.camera.height,
+            )
+            .ok_or_else(|| {
+                invalid(format!(
+                    "frame {index}: the camera's look direction is zero or parallel to up"
+                ))
+            })?;
+        }
+        Ok(())
+    }
+
+    /// The camera at scene time `time` (seconds): the keyed pose for a moving camera, else the
+    /// scene's camera.
+    #[inline]
+    pub fn camera_at(&self, time: f32) -> std::borrow::Cow<'_, Camera> {
+        match &self.camera_track {
+            Some(track) if time != self.frame.time_s as f32 => {
+                match Camera::from_key(&track.at(time), self.camera.width, self.camera.height) {
+                    Some(c) => std::borrow::Cow::Owned(c),
+                    None => std::borrow::Cow::Borrowed(&self.camera),
+                }
+            }
+            _ => std::borrow::Cow::Borrowed(&self.camera),
+        }
+    }
+
+    /// The time of sample `sample_index` of pixel `pixel_index` in the current frame: uniform
+    /// over the shutter from a stream of its own (so the path's random numbers are the same
+    /// with and without motion blur), or the frame's instant.
+    #[inline]
+    pub fn sample_time(&self, seed: u64, pixel_index: u64, sample_index: u64) -> f32 {
+        if !self.frame.has_motion_blur() {
+            return self.frame.time_s as f32;
+        }
+        let u = crate::rng::Rng::for_sample(seed ^ TIME_STREAM_KEY, pixel_index, sample_index)
+            .uniform();
+        self.frame.sample_time(u)
     }
 
     /// Builds a scene from an already parsed (and possibly overridden) description.

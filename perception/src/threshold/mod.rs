@@ -47,8 +47,8 @@ use crate::adaptation::{
     AdaptationMode, LOG_DELTA_CD_M2, Padding, gaussian_filter, log_average, window_sigma_px,
 };
 use crate::csf::{
-    DRIFT_VELOCITY_DEG_S, DalyCsfParams, csf_daly93, csf_kelly_daly, daly93_peak,
-    masking_elevation, retinal_velocity,
+    DRIFT_VELOCITY_DEG_S, DalyCsfParams, EyeTracking, csf_daly93, csf_kelly_daly, daly93_peak,
+    masking_elevation, retinal_velocity_tracked,
 };
 use crate::error::{PerceptionError, Result, check_image};
 use crate::fft::Fft2d;
@@ -387,6 +387,21 @@ impl ThresholdMapper {
     /// [`PerceptionError`] if a buffer has the wrong length or holds NaN, infinite or (for
     /// luminance) negative values.
     pub fn compute(&self, luminance: &[f32], velocity: Option<&[f32]>) -> Result<ThresholdMap> {
+        self.compute_tracked(luminance, velocity, EyeTracking::PerPixel)
+    }
+
+    /// As [`ThresholdMapper::compute`], with the eye-tracking assumption `eye` that turns image
+    /// velocity into retinal velocity ([`retinal_velocity_tracked`]); a target's velocity is
+    /// in deg/s.
+    ///
+    /// # Errors
+    /// As [`ThresholdMapper::compute`].
+    pub fn compute_tracked(
+        &self,
+        luminance: &[f32],
+        velocity: Option<&[f32]>,
+        eye: EyeTracking,
+    ) -> Result<ThresholdMap> {
         let (w, h) = (self.width, self.height);
         check_image("luminance", luminance, w, h, 1, true)?;
         if let Some(v) = velocity {
@@ -431,8 +446,10 @@ impl ThresholdMapper {
         let v_retinal: Option<Vec<f32>> = velocity.map(|v| {
             v.par_chunks(2)
                 .map(|d| {
-                    let px = ((d[0] as f64).powi(2) + (d[1] as f64).powi(2)).sqrt();
-                    retinal_velocity(self.view.velocity_deg_s(px)) as f32
+                    // px/frame → deg/s per component (velocity_deg_s takes a magnitude).
+                    let k = self.view.velocity_deg_s(1.0);
+                    let v = [d[0] as f64 * k, d[1] as f64 * k];
+                    retinal_velocity_tracked(v, eye) as f32
                 })
                 .collect()
         });

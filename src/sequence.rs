@@ -1,0 +1,111 @@
+//! Sequences: the viewer's adaptation carried across frames that still render independently.
+//!
+//! The displayed sequence follows the time course of adaptation (Pattanaik et al. 2000, §4;
+//! [`AdaptationState`]): frame n's tone curve comes from the state reached by starting fully
+//! adapted to the first frame of the sequence and advancing by 1/fps through the stimuli of
+//! frames first..=n. A frame's stimulus (G_cone, G_rod) is the log average of its photopic and
+//! scotopic luminance, which a cheap pre-pass gives: **1 sample in every 4th pixel of every 4th
+//! row** (1/16 spp), under a seed of its own, so that the state at frame n is a deterministic
+//! function of the scene and n alone. The samples are pooled in blocks of 8 × 8 sampled pixels
+//! (32 × 32 image pixels, 64 samples) before the logarithm: the log of single path-traced
+//! samples is biased low by their noise (Jensen's inequality; at 1 spp on the Cornell box the
+//! adaptation came out several times too dark), while the log average is meant to see the
+//! image's own contrast, which at the scale of 1° or more survives the pooling. Any frame can therefore render on any machine without
+//! waiting for the others, at the cost of n/16 spp of pre-passes, and the full renders run in any
+//! order.
+
+use crate::error::SceneResult;
+use crate::film::Film;
+use crate::integrator::{Integrator, Strategy};
+use crate::render::render_counts_seeded;
+use crate::scene::Scene;
+use perception::tmo::pattanaik00::AdaptationState;
+
+/// Spacing of the adaptation pre-pass's pixels, both axes.
+pub const PREPASS_STRIDE: usize = 4;
+
+/// Sampled pixels per block side pooled before the logarithm.
+pub const PREPASS_POOL: usize = 8;
+
+/// Seed offset of the pre-pass (independent of the frame's own samples).
+const PREPASS_SEED_XOR: u64 = 0x510E_527F_ADE6_82D1;
+
+/// The stimuli (G_cone, G_rod), cd/m², of the scene's current frame from the 1/16-spp pre-pass.
+pub fn adaptation_stimulus(scene: &Scene) -> (f64, f64) {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let counts: Vec<u32> = (0..w * h)
+        .map(|i| u32::from((i % w) % PREPASS_STRIDE == 0 && (i / w) % PREPASS_STRIDE == 0))
+        .collect();
+    let integrator = Integrator {
+        max_depth: scene.settings.max_depth,
+        strategy: Strategy::Mis,
+    };
+    let mut film = Film::new(w as u32, h as u32);
+    let seed = scene.frame_seed() ^ PREPASS_SEED_XOR;
+    render_counts_seeded(scene, &integrator, &mut film, &counts, seed, &|_| {});
+    let k = scene.settings.luminance_scale as f64;
+    let block = PREPASS_STRIDE * PREPASS_POOL;
+    let (bw, bh) = (w.div_ceil(block), h.div_ceil(block));
+    let mut sums = vec![(glam::DVec3::ZERO, 0u32); bw * bh];
+    for (i, p) in film.pixels.iter().enumerate().filter(|(_, p)| p.n > 0) {
+        let b = &mut sums[(i / w) / block * bw + (i % w) / block];
+        b.0 += p.sum_even + p.sum_odd;
+        b.1 += p.n;
+    }
+    let rgb_cd: Vec<f32> = sums
+        .iter()
+        .filter(|(_, n)| *n > 0)
+        .flat_map(|(s, n)| (*s * (k / *n as f64)).as_vec3().to_array())
+        .collect();
+    AdaptationState::stimulus(&rgb_cd)
+}
+
+/// The viewer's adaptation over a sequence's frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AdaptationCourse {
+    /// Frames per second.
+    pub fps: f64,
+    /// The sequence's first frame (fully adapted to it).
+    pub first: i64,
+    /// Stimuli of frames `first`, `first + 1`, …, cd/m².
+    pub stimuli: Vec<(f64, f64)>,
+}
+
+impl AdaptationCourse {
+    /// Runs the pre-passes of frames first..=`last` of the scene's animation and restores the
+    /// scene's current frame. `None` for a still.
+    ///
+    /// # Errors
+    /// As [`Scene::set_frame`] (`last` outside the frame range).
+    pub fn compute(scene: &mut Scene, last: i64) -> SceneResult<Option<AdaptationCourse>> {
+        let Some(anim) = scene.animation else {
+            return Ok(None);
+        };
+        let current = scene.frame.index;
+        let mut stimuli = Vec::new();
+        for f in anim.frame_start..=last {
+            scene.set_frame(f)?;
+            stimuli.push(adaptation_stimulus(scene));
+        }
+        scene.set_frame(current)?;
+        Ok(Some(AdaptationCourse {
+            fps: anim.fps,
+            first: anim.frame_start,
+            stimuli,
+        }))
+    }
+
+    /// The state at frame `frame`: steady for the first frame's stimulus, then advanced by 1/fps
+    /// under each later frame's stimulus. Frames past the computed ones hold the last state.
+    pub fn state_at(&self, frame: i64) -> AdaptationState {
+        let Some(&(c0, r0)) = self.stimuli.first() else {
+            return AdaptationState::steady(1.0, 1.0);
+        };
+        let mut state = AdaptationState::steady(c0, r0);
+        let n = (frame - self.first).clamp(0, self.stimuli.len() as i64 - 1) as usize;
+        for &(c, r) in &self.stimuli[1..=n] {
+            state.advance(c, r, 1.0 / self.fps);
+        }
+        state
+    }
+}
