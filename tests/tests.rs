@@ -3,6 +3,7 @@
 mod util;
 
 mod adaptive;
+mod animation;
 
 mod bad_input;
 mod determinism;

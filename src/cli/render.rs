@@ -513,11 +513,7 @@ pub(super) struct Written {
 type ExrLayers = (Vec<(String, ChannelData)>, Vec<(String, String)>);
 
 /// EXR attributes and extra channels of a render.
-fn exr_layers(
-    scene: &Scene,
-    settings: &AdaptiveSettings,
-    result: &AdaptiveResult,
-) -> ExrLayers {
+fn exr_layers(scene: &Scene, settings: &AdaptiveSettings, result: &AdaptiveResult) -> ExrLayers {
     let mut attributes = vec![
         (
             "radianceUnits".to_string(),

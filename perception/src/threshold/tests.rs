@@ -201,3 +201,49 @@ fn noise_threshold_rises_in_the_dark_and_under_masking_in_its_own_bands() {
         "far from a coarse edge: {far} vs {bright}"
     );
 }
+
+#[test]
+fn noise_threshold_rises_with_velocity_as_the_csf_predicts() {
+    // Flat field at 100 cd/m² (no masking): C_noise ∝ (Σ_k φ_k² S_k²)^−1/2, and motion multiplies
+    // each band's sensitivity by r_k = S_KD(ρ_k, v_R) / S_KD(ρ_k, drift). So the ratio
+    // C_noise(v) / C_noise(0) = (Σ φ² S² r²)^−1/2 / (Σ φ² S²)^−1/2 is a weighted quadratic mean of
+    // the 1/r_k and must lie in [1 / max r_k, 1 / min r_k], computed here from the public CSF.
+    let (w, h) = (128, 64);
+    let view = view32(w).with_fps(32.0).unwrap();
+    let mapper = ThresholdMapper::new(w, h, view, ThresholdParams::default()).unwrap();
+    let img = vec![100.0f32; w * h];
+    let c = (h / 2) * w + w / 2;
+    let still = mapper.compute(&img, None).unwrap().noise_contrast[c];
+    let bands = mapper.band_frequencies_cpd();
+    let mut prev = 0.0;
+    // (Up to 32 px/frame: faster still, C_noise reaches its cap, max_elevation / S_max.)
+    for px_per_frame in [4.0f32, 8.0, 16.0, 32.0] {
+        let vel: Vec<f32> = (0..w * h).flat_map(|_| [px_per_frame, 0.0]).collect();
+        let moving = mapper.compute(&img, Some(&vel)).unwrap().noise_contrast[c];
+        let ratio = (moving / still) as f64;
+        let v_r = crate::csf::retinal_velocity(view.velocity_deg_s(px_per_frame as f64));
+        let r: Vec<f64> = bands
+            .iter()
+            .map(|&rho| {
+                crate::csf::csf_kelly_daly(rho, v_r)
+                    / crate::csf::csf_kelly_daly(rho, crate::csf::DRIFT_VELOCITY_DEG_S)
+            })
+            .collect();
+        let (lo, hi) = (
+            1.0 / r.iter().cloned().fold(0.0, f64::max),
+            1.0 / r.iter().cloned().fold(f64::INFINITY, f64::min),
+        );
+        // 1 % for the tables' interpolation.
+        assert!(
+            ratio >= 0.99 * lo && ratio <= 1.01 * hi,
+            "{px_per_frame} px/frame (v_R {v_r:.2} deg/s): ratio {ratio} outside [{lo}, {hi}]"
+        );
+        // Past the pursuit dip, faster content always has a higher noise threshold.
+        assert!(ratio > prev, "{px_per_frame} px/frame: {ratio} <= {prev}");
+        prev = ratio;
+    }
+    assert!(
+        prev > 2.0,
+        "fast content should tolerate much more noise: {prev}"
+    );
+}
