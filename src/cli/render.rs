@@ -357,7 +357,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// Parses `A-B`, `A..B` or a single frame `N`.
-fn parse_frames(s: &str) -> Result<(i64, i64), String> {
+pub(super) fn parse_frames(s: &str) -> Result<(i64, i64), String> {
     let t = s.trim();
     let pair = t.split_once("..").or_else(|| {
         t.get(1..)

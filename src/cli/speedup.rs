@@ -10,6 +10,7 @@ use aleph::integrator::Strategy;
 use aleph::output::{AtomicOutputs, ChannelData, write_exr, write_png};
 use aleph::render::render_uniform;
 use aleph::scene::{Scene, SceneDescription};
+use aleph::sequence::AdaptationCourse;
 use aleph::speedup::{Ceiling, Judge, Scores, ceiling, samples_for};
 use anyhow::{Context, bail};
 use clap::Args;
@@ -44,19 +45,54 @@ pub struct SpeedupArgs {
     /// Worker threads.
     #[arg(long, value_name = "N")]
     threads: Option<usize>,
-    /// Tone operator of the judged display images (default: exposure, as `render` writes).
+    /// Tone operator of the judged display images (default: exposure for a still, as `render`
+    /// writes; PTYG with the carried adaptation state for a sequence).
     #[arg(long, value_enum, value_name = "OP")]
     tonemap: Option<OperatorArg>,
+    /// Frames of an animated scene, FIRST-LAST (default: the whole [animation] range). Each
+    /// frame gets its own reference and sweep; the sequence's speedup is at equal mean score.
+    #[arg(long, value_name = "A-B", value_parser = super::render::parse_frames)]
+    frames: Option<(i64, i64)>,
     #[command(flatten)]
     sampling: SamplingArgs,
     #[command(flatten)]
     tone: ToneArgs,
 }
 
-/// One render of the sweep.
+/// One arm of the comparison: a sampler, and for sequences the perceptual sampler without its
+/// velocity map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Arm {
+    Uniform,
+    Variance,
+    Perceptual,
+    PerceptualNoVelocity,
+}
+
+impl Arm {
+    fn name(self) -> &'static str {
+        match self {
+            Arm::Uniform => "uniform",
+            Arm::Variance => "variance",
+            Arm::Perceptual => "perceptual",
+            Arm::PerceptualNoVelocity => "perceptual-novelocity",
+        }
+    }
+
+    fn sampler(self) -> SamplerKind {
+        match self {
+            Arm::Uniform => SamplerKind::Uniform,
+            Arm::Variance => SamplerKind::Variance,
+            Arm::Perceptual | Arm::PerceptualNoVelocity => SamplerKind::Perceptual,
+        }
+    }
+}
+
+/// One arm at one budget: for a sequence, spp and scores are means over its frames and times
+/// are sums.
 #[derive(Clone, Debug)]
 struct Row {
-    sampler: SamplerKind,
+    sampler: Arm,
     budget: f64,
     mean_spp: f64,
     guide_spp: f64,
@@ -66,7 +102,7 @@ struct Row {
 }
 
 /// FNV-1a over the scene file, its meshes and the settings that change the reference.
-fn reference_key(desc: &SceneDescription, spp: u32, seed: u64) -> String {
+fn reference_key(desc: &SceneDescription, spp: u32, seed: u64, frame: Option<i64>) -> String {
     struct Fnv(u64);
     impl Hasher for Fnv {
         fn finish(&self) -> u64 {
@@ -86,7 +122,7 @@ fn reference_key(desc: &SceneDescription, spp: u32, seed: u64) -> String {
     }
     h.write(
         format!(
-            "{:?}|{spp}|{seed}|{:?}|{}",
+            "{:?}|{spp}|{seed}|{:?}|{frame:?}|{}",
             desc.camera.resolution,
             desc.render.max_depth,
             env!("CARGO_PKG_VERSION")
@@ -153,11 +189,17 @@ pub fn run(args: SpeedupArgs) -> anyhow::Result<ExitCode> {
     if args.reference_spp < 2 {
         bail!("--reference-spp must be at least 2");
     }
-    let name = scene_path
-        .parent()
-        .and_then(|p| p.file_name())
+    let name = match scene_path
+        .file_stem()
         .map(|s| s.to_string_lossy().to_string())
-        .unwrap_or_else(|| "scene".into());
+    {
+        Some(stem) if stem != "scene" => stem,
+        _ => scene_path
+            .parent()
+            .and_then(|p| p.file_name())
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_else(|| "scene".into()),
+    };
     let dir = args
         .output
         .clone()
@@ -167,124 +209,269 @@ pub fn run(args: SpeedupArgs) -> anyhow::Result<ExitCode> {
     with_threads(args.threads, move || sweep(desc, &dir, &args))?
 }
 
-fn sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Result<ExitCode> {
-    let key = reference_key(&desc, args.reference_spp, args.seed);
-    let mut ref_desc = desc.clone();
-    ref_desc.render.seed = Some(args.seed ^ 0x5851_F42D_4C95_7F2D);
-    let scene = Scene::load_description(desc)?;
-    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    let n = w * h;
+/// The cached uniform reference of the scene's current frame, rendered when missing.
+fn reference_for(ref_scene: &Scene, path: &Path, spp: u32) -> anyhow::Result<Reference> {
+    let (w, h) = (
+        ref_scene.camera.width as usize,
+        ref_scene.camera.height as usize,
+    );
+    if let Some(r) = read_reference(path, w * h) {
+        eprintln!("using cached reference {}", path.display());
+        return Ok(r);
+    }
+    eprintln!("rendering the reference: {w}×{h} at {spp} spp …");
+    let t = Instant::now();
+    let (film, _) = render_uniform(ref_scene, Strategy::Mis, spp, &|_| {});
+    eprintln!("reference rendered in {:.1} s", t.elapsed().as_secs_f64());
+    let mean = film.mean_rgb();
+    let mut out = AtomicOutputs::new();
+    let attrs = vec![("referenceSpp".to_string(), spp.to_string())];
+    out.stage(path, |wr| {
+        write_exr(wr, path, w as u32, h as u32, &mean, &planes(&film), &attrs)
+    })?;
+    out.commit()?;
+    Ok(Reference {
+        mean,
+        even: film.mean_rgb_even(),
+        odd: film.mean_rgb_odd(),
+    })
+}
 
-    // Reference (cached).
-    let ref_path = dir.join(format!("reference-{key}.exr"));
-    let reference = match read_reference(&ref_path, n) {
-        Some(r) => {
-            eprintln!("using cached reference {}", ref_path.display());
-            r
-        }
-        None => {
-            eprintln!(
-                "rendering the reference: {w}×{h} at {} spp …",
-                args.reference_spp
-            );
-            let ref_scene = Scene::load_description(ref_desc)?;
-            let t = Instant::now();
-            let (film, _) = render_uniform(&ref_scene, Strategy::Mis, args.reference_spp, &|_| {});
-            eprintln!("reference rendered in {:.1} s", t.elapsed().as_secs_f64());
-            let mean = film.mean_rgb();
-            let mut out = AtomicOutputs::new();
-            let attrs = vec![("referenceSpp".to_string(), args.reference_spp.to_string())];
-            out.stage(&ref_path, |wr| {
-                write_exr(
-                    wr,
-                    &ref_path,
-                    w as u32,
-                    h as u32,
-                    &mean,
-                    &planes(&film),
-                    &attrs,
-                )
-            })?;
-            out.commit()?;
-            Reference {
-                mean,
-                even: film.mean_rgb_even(),
-                odd: film.mean_rgb_odd(),
-            }
-        }
-    };
+/// Sums over frames of one arm at one budget.
+#[derive(Default)]
+struct Acc {
+    frames: usize,
+    mean_spp: f64,
+    guide_spp: f64,
+    wall_s: f64,
+    decision_s: f64,
+    flip_mean: f64,
+    flip_p99: f64,
+    visible: f64,
+    relmse: f64,
+}
 
-    let op = args
-        .tonemap
-        .map(Operator::from)
-        .unwrap_or(Operator::Exposure);
-    let tone = args.tone.settings(op, w, scene.settings.luminance_scale)?;
-    let frozen = FrozenToneMap::new(&reference.mean, w, h, &tone)?;
-    let view = match args.sampling.ppd {
-        Some(p) => perception::viewing::ViewingConditions {
-            ppd: p,
-            ..tone.view
-        },
-        None => tone.view,
-    };
-    let judge = Judge::new(reference.mean.clone(), w, h, frozen.clone(), view)?;
-    let floor =
-        Judge::new(reference.even.clone(), w, h, frozen.clone(), view)?.score(&reference.odd)?;
+impl Acc {
+    fn add(&mut self, r: &Row) {
+        self.frames += 1;
+        self.mean_spp += r.mean_spp;
+        self.guide_spp += r.guide_spp;
+        self.wall_s += r.wall_s;
+        self.decision_s += r.decision_s;
+        self.flip_mean += r.scores.flip_mean;
+        self.flip_p99 += r.scores.flip_p99;
+        self.visible += r.scores.visible_fraction;
+        self.relmse += r.scores.relmse;
+    }
 
-    // The sweep.
-    let mut rows: Vec<Row> = Vec::new();
-    let samplers = [
-        SamplerKind::Uniform,
-        SamplerKind::Variance,
-        SamplerKind::Perceptual,
-    ];
-    let mut images = AtomicOutputs::new();
-    let mut uniform_maps: Vec<(f64, Vec<f32>)> = Vec::new();
-    for &budget in &args.budgets {
-        for sampler in samplers {
-            let settings = args
-                .sampling
-                .settings(sampler, Some(budget), budget as u32, tone)?;
-            let t = Instant::now();
-            let r = render_adaptive(&scene, &settings, &|_| {}, &|_| {})?;
-            let wall = t.elapsed().as_secs_f64();
-            let rgb = r.film.mean_rgb();
-            let (scores, fmap) = judge.score_with_map(&rgb)?;
-            if sampler == SamplerKind::Uniform {
-                uniform_maps.push((budget, fmap));
-            }
-            let row = Row {
-                sampler,
-                budget,
-                mean_spp: r.mean_spp(),
-                guide_spp: r
-                    .guide_stats
-                    .map(|g| g.samples as f64 / n as f64)
-                    .unwrap_or(0.0),
-                wall_s: wall,
-                decision_s: r.decision_time.as_secs_f64(),
-                scores,
-            };
-            eprintln!(
-                "{:>10} {:>6} spp: {:7.2} spp used, {:7.2} s, FLIP {:.4} (p99 {:.4}), visible {:.4}, relMSE {:.5}",
-                sampler.name(),
-                budget,
-                row.mean_spp,
-                wall,
-                scores.flip_mean,
-                scores.flip_p99,
-                scores.visible_fraction,
-                scores.relmse
-            );
-            let png = dir.join(format!("{}-{}spp.png", sampler.name(), budget));
-            let srgb = judge.display_srgb(&rgb)?;
-            images.stage(&png, |wr| write_png(wr, &png, w as u32, h as u32, &srgb))?;
-            rows.push(row);
+    /// Means of spp and scores, sums of times.
+    fn row(&self, sampler: Arm, budget: f64) -> Row {
+        let k = 1.0 / self.frames.max(1) as f64;
+        Row {
+            sampler,
+            budget,
+            mean_spp: self.mean_spp * k,
+            guide_spp: self.guide_spp * k,
+            wall_s: self.wall_s,
+            decision_s: self.decision_s,
+            scores: Scores {
+                flip_mean: self.flip_mean * k,
+                flip_p99: self.flip_p99 * k,
+                visible_fraction: self.visible * k,
+                relmse: self.relmse * k,
+            },
         }
     }
-    images.commit()?;
-    // The ceiling, fitted between the second-lowest and the highest uniform budgets (the lowest
-    // is the noisiest fit), at each budget of the sweep.
+}
+
+/// Where the display image of one render goes: `DIR/ARM-Bspp.png` for a still,
+/// `DIR/frames/ARM-Bspp/NNNN.png` for a sequence frame (the layout `benches/cvvdp_judge.py`
+/// reads).
+fn image_path(dir: &Path, arm: &str, frame: Option<i64>) -> PathBuf {
+    match frame {
+        None => dir.join(format!("{arm}.png")),
+        Some(f) => dir.join("frames").join(arm).join(format!("{f:04}.png")),
+    }
+}
+
+/// The frames to judge: `None` once for a still.
+fn frame_list(scene: &Scene, args: &SpeedupArgs) -> anyhow::Result<Vec<Option<i64>>> {
+    match (scene.animation, args.frames) {
+        (None, None) => Ok(vec![None]),
+        (None, Some(_)) => bail!(
+            "{}: --frames needs an animated scene (this one has no [animation] table)",
+            scene.path.display()
+        ),
+        (Some(a), range) => {
+            let (first, last) = range.unwrap_or((a.frame_start, a.frame_end));
+            for f in [first, last] {
+                if !a.contains(f) {
+                    bail!(
+                        "{}: frame {f} is outside the scene's frame range {}-{}",
+                        scene.path.display(),
+                        a.frame_start,
+                        a.frame_end
+                    );
+                }
+            }
+            Ok((first..=last).map(Some).collect())
+        }
+    }
+}
+
+fn sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Result<ExitCode> {
+    let mut ref_desc = desc.clone();
+    ref_desc.render.seed = Some(args.seed ^ 0x5851_F42D_4C95_7F2D);
+    let key_desc = desc.clone();
+    let mut scene = Scene::load_description(desc)?;
+    let mut ref_scene = Scene::load_description(ref_desc)?;
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let frames = frame_list(&scene, args)?;
+    let course = match frames.last() {
+        Some(Some(last)) => AdaptationCourse::compute(&mut scene, *last)?,
+        _ => None,
+    };
+    let arms: &[Arm] = if course.is_some() {
+        &[
+            Arm::Uniform,
+            Arm::Variance,
+            Arm::Perceptual,
+            Arm::PerceptualNoVelocity,
+        ]
+    } else {
+        &[Arm::Uniform, Arm::Variance, Arm::Perceptual]
+    };
+    let default_op = if course.is_some() {
+        Operator::Ptyg
+    } else {
+        Operator::Exposure
+    };
+    let op = args.tonemap.map(Operator::from).unwrap_or(default_op);
+    let mut acc: Vec<Acc> = (0..arms.len() * args.budgets.len())
+        .map(|_| Acc::default())
+        .collect();
+    let mut floor_acc = Acc::default();
+    let mut per_frame = String::from(
+        "frame,sampler,budget_spp,mean_spp,wall_s,flip_mean,flip_p99,visible_fraction,relmse\n",
+    );
+    let mut uniform_maps: Vec<(f64, Vec<f32>)> = Vec::new();
+    let mut view = perception::viewing::ViewingConditions::default();
+    for &frame in &frames {
+        if let Some(f) = frame {
+            scene.set_frame(f)?;
+            ref_scene.set_frame(f)?;
+        }
+        let key = reference_key(&key_desc, args.reference_spp, args.seed, frame);
+        let reference = reference_for(
+            &ref_scene,
+            &dir.join(format!("reference-{key}.exr")),
+            args.reference_spp,
+        )?;
+        let mut tone = args.tone.settings(op, w, scene.settings.luminance_scale)?;
+        tone.adaptation_state = course.as_ref().zip(frame).map(|(c, f)| c.state_at(f));
+        let frozen = FrozenToneMap::new(&reference.mean, w, h, &tone)?;
+        view = match args.sampling.ppd {
+            Some(p) => perception::viewing::ViewingConditions {
+                ppd: p,
+                ..tone.view
+            },
+            None => tone.view,
+        };
+        let judge = Judge::new(reference.mean.clone(), w, h, frozen.clone(), view)?;
+        let floor =
+            Judge::new(reference.even.clone(), w, h, frozen, view)?.score(&reference.odd)?;
+        floor_acc.add(&Row {
+            sampler: Arm::Uniform,
+            budget: 0.0,
+            mean_spp: 0.0,
+            guide_spp: 0.0,
+            wall_s: 0.0,
+            decision_s: 0.0,
+            scores: floor,
+        });
+        let mut images = AtomicOutputs::new();
+        if frame.is_some() {
+            let p = image_path(dir, "reference", frame);
+            std::fs::create_dir_all(p.parent().expect("has a parent"))?;
+            let srgb = judge.display_srgb(&reference.mean)?;
+            images.stage(&p, |wr| write_png(wr, &p, w as u32, h as u32, &srgb))?;
+        }
+        for (bi, &budget) in args.budgets.iter().enumerate() {
+            for (ai, &arm) in arms.iter().enumerate() {
+                let mut settings =
+                    args.sampling
+                        .settings(arm.sampler(), Some(budget), budget as u32, tone)?;
+                settings.use_velocity = arm != Arm::PerceptualNoVelocity;
+                let t = Instant::now();
+                let r = render_adaptive(&scene, &settings, &|_| {}, &|_| {})?;
+                let wall = t.elapsed().as_secs_f64();
+                let rgb = r.film.mean_rgb();
+                let (scores, fmap) = judge.score_with_map(&rgb)?;
+                if arm == Arm::Uniform && frame == frames[0] {
+                    uniform_maps.push((budget, fmap));
+                }
+                let row = Row {
+                    sampler: arm,
+                    budget,
+                    mean_spp: r.mean_spp(),
+                    guide_spp: r
+                        .guide_stats
+                        .map(|g| g.samples as f64 / (w * h) as f64)
+                        .unwrap_or(0.0),
+                    wall_s: wall,
+                    decision_s: r.decision_time.as_secs_f64(),
+                    scores,
+                };
+                let label = match frame {
+                    Some(f) => format!("frame {f} "),
+                    None => String::new(),
+                };
+                eprintln!(
+                    "{label}{:>21} {:>6} spp: {:7.2} spp used, {:7.2} s, FLIP {:.4} (p99 {:.4}), visible {:.4}, relMSE {:.5}",
+                    arm.name(),
+                    budget,
+                    row.mean_spp,
+                    wall,
+                    scores.flip_mean,
+                    scores.flip_p99,
+                    scores.visible_fraction,
+                    scores.relmse
+                );
+                let _ = writeln!(
+                    per_frame,
+                    "{},{},{budget},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8}",
+                    frame.unwrap_or(0),
+                    arm.name(),
+                    row.mean_spp,
+                    wall,
+                    scores.flip_mean,
+                    scores.flip_p99,
+                    scores.visible_fraction,
+                    scores.relmse
+                );
+                let png = image_path(dir, &format!("{}-{}spp", arm.name(), budget), frame);
+                std::fs::create_dir_all(png.parent().expect("has a parent"))?;
+                let srgb = judge.display_srgb(&rgb)?;
+                images.stage(&png, |wr| write_png(wr, &png, w as u32, h as u32, &srgb))?;
+                acc[bi * arms.len() + ai].add(&row);
+            }
+        }
+        images.commit()?;
+    }
+    let rows: Vec<Row> = args
+        .budgets
+        .iter()
+        .enumerate()
+        .flat_map(|(bi, &b)| {
+            let acc = &acc;
+            arms.iter()
+                .enumerate()
+                .map(move |(ai, &arm)| acc[bi * arms.len() + ai].row(arm, b))
+        })
+        .collect();
+    let floor = floor_acc.row(Arm::Uniform, 0.0).scores;
+    // The ceiling (of the first frame), fitted between the second-lowest and the highest uniform
+    // budgets (the lowest is the noisiest fit), at each budget of the sweep.
     let ceilings: Vec<(f64, Ceiling)> = if uniform_maps.len() >= 3 {
         let (lo, hi) = (&uniform_maps[1], &uniform_maps[uniform_maps.len() - 1]);
         args.budgets
@@ -294,10 +481,16 @@ fn sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Resu
     } else {
         Vec::new()
     };
-    let report = report(&rows, &floor, args, &scene, w, h, view.ppd, &ceilings);
+    let n_frames = frames.iter().flatten().count();
+    let report = report(
+        &rows, &floor, args, &scene, w, h, view.ppd, &ceilings, n_frames,
+    );
     print!("{report}");
     let mut out = AtomicOutputs::new();
     out.stage_bytes(&dir.join("speedup.csv"), csv(&rows).as_bytes())?;
+    if n_frames > 0 {
+        out.stage_bytes(&dir.join("frames.csv"), per_frame.as_bytes())?;
+    }
     out.stage_bytes(&dir.join("speedup.md"), report.as_bytes())?;
     let (png, pw, ph) = plot_png(&rows, &floor)?;
     let plot_path = dir.join("speedup.png");
@@ -336,7 +529,7 @@ fn csv(rows: &[Row]) -> String {
 
 fn curve(
     rows: &[Row],
-    s: SamplerKind,
+    s: Arm,
     x: impl Fn(&Row) -> f64,
     y: impl Fn(&Row) -> f64,
 ) -> Vec<(f64, f64)> {
@@ -359,9 +552,20 @@ fn report(
     h: usize,
     ppd: f64,
     ceilings: &[(f64, Ceiling)],
+    frames: usize,
 ) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# aleph speedup: {}", scene.path.display());
+    if frames > 0 {
+        let _ = writeln!(
+            s,
+            "\nA sequence of {frames} frames, each with its own reference and sweep: spp and scores are means over the frames, wall times are sums (per-frame rows in `frames.csv`). The judged display is {} with the viewer's adaptation carried from frame to frame.",
+            args.tonemap
+                .map(Operator::from)
+                .unwrap_or(Operator::Ptyg)
+                .label()
+        );
+    }
     let _ = writeln!(
         s,
         "\n{w}×{h}, reference {} spp uniform (its own noise floor, FLIP between its two half-buffers: mean {:.4}, p99 {:.4}); viewer at {:.1} pixels per degree.\n",
@@ -397,10 +601,19 @@ fn report(
         let _ = writeln!(s, "\n## Equal {label}\n");
         let _ = writeln!(
             s,
-            "| target {label} | uniform spp | variance spp | perceptual spp | speedup vs uniform (spp) | vs variance (spp) | speedup vs uniform (time) | vs variance (time) |"
+            "| target {label} | uniform spp | variance spp | perceptual spp | speedup vs uniform (spp) | vs variance (spp) | speedup vs uniform (time) | vs variance (time) |{}",
+            if frames > 0 {
+                " perceptual without velocity spp | velocity's gain (spp) |"
+            } else {
+                ""
+            }
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
-        let uni = curve(rows, SamplerKind::Uniform, |r| r.mean_spp, metric);
+        let _ = writeln!(
+            s,
+            "|---|---|---|---|---|---|---|---|{}",
+            if frames > 0 { "---|---|" } else { "" }
+        );
+        let uni = curve(rows, Arm::Uniform, |r| r.mean_spp, metric);
         // Targets: the uniform sampler's scores at its budgets (excluding the extremes).
         let targets: Vec<f64> = uni.iter().skip(1).map(|p| p.1).collect();
         for t in targets {
@@ -411,19 +624,21 @@ fn report(
                 (Some(a), Some(b)) if b > 0.0 => format!("{:.2}×", a / b),
                 _ => "—".into(),
             };
-            let (us, vs, ps) = (
-                spp(SamplerKind::Uniform),
-                spp(SamplerKind::Variance),
-                spp(SamplerKind::Perceptual),
-            );
+            let (us, vs, ps) = (spp(Arm::Uniform), spp(Arm::Variance), spp(Arm::Perceptual));
             let (ut, vt, pt) = (
-                time(SamplerKind::Uniform),
-                time(SamplerKind::Variance),
-                time(SamplerKind::Perceptual),
+                time(Arm::Uniform),
+                time(Arm::Variance),
+                time(Arm::Perceptual),
             );
+            let extra = if frames > 0 {
+                let ns = spp(Arm::PerceptualNoVelocity);
+                format!(" {} | {} |", f(ns), ratio(ns, ps))
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 s,
-                "| {t:.4} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {t:.4} | {} | {} | {} | {} | {} | {} | {} |{extra}",
                 f(us),
                 f(vs),
                 f(ps),
@@ -451,7 +666,7 @@ fn report(
     }
     let perc: Vec<&Row> = rows
         .iter()
-        .filter(|r| r.sampler == SamplerKind::Perceptual)
+        .filter(|r| r.sampler == Arm::Perceptual)
         .collect();
     let total: f64 = perc.iter().map(|r| r.wall_s).sum();
     let dec: f64 = perc.iter().map(|r| r.decision_s).sum();
@@ -466,11 +681,12 @@ fn report(
     s
 }
 
-type Series = (SamplerKind, RGBColor);
-const SERIES: [Series; 3] = [
-    (SamplerKind::Uniform, RGBColor(90, 90, 90)),
-    (SamplerKind::Variance, RGBColor(30, 110, 200)),
-    (SamplerKind::Perceptual, RGBColor(220, 60, 30)),
+type Series = (Arm, RGBColor);
+const SERIES: [Series; 4] = [
+    (Arm::Uniform, RGBColor(90, 90, 90)),
+    (Arm::Variance, RGBColor(30, 110, 200)),
+    (Arm::Perceptual, RGBColor(220, 60, 30)),
+    (Arm::PerceptualNoVelocity, RGBColor(240, 160, 40)),
 ];
 
 fn draw<DB: DrawingBackend>(
@@ -535,6 +751,9 @@ where
             .map_err(|e| e.to_string())?;
         for (k, color) in SERIES {
             let c = curve(rows, k, xf, mf);
+            if c.is_empty() {
+                continue;
+            }
             chart
                 .draw_series(LineSeries::new(c.clone(), color.stroke_width(2)))
                 .map_err(|e| e.to_string())?
