@@ -400,3 +400,56 @@ fn adaptation_course_shows_glare_after_a_cut_to_bright_and_slow_dark_adaptation(
         "{s:?} vs {steady_dark:?}"
     );
 }
+
+#[test]
+fn sequence_speedup_runs_end_to_end_on_a_tiny_scene() {
+    let dir = tempdir();
+    let path = animated_cornell(dir.path());
+    let out = dir.path().join("sp");
+    let o = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(["speedup", "--resolution", "16x16", "--budgets", "2,4,8"])
+        .args([
+            "--reference-spp",
+            "32",
+            "--min-spp",
+            "2",
+            "--frames",
+            "1-2",
+            "-o",
+        ])
+        .arg(&out)
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        table.contains("A sequence of 2 frames")
+            && table.contains("| perceptual-novelocity | 8 |")
+            && table.contains("velocity's gain"),
+        "{table}"
+    );
+    // Per-frame rows: 2 frames × 3 budgets × 4 arms; the sequence rows: 3 × 4.
+    let frames = std::fs::read_to_string(out.join("frames.csv")).unwrap();
+    assert_eq!(frames.lines().count(), 1 + 2 * 3 * 4);
+    let csv = std::fs::read_to_string(out.join("speedup.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 3 * 4);
+    // The frames a video judge reads: one folder per arm and budget, and the reference.
+    for f in [
+        "frames/reference/0001.png",
+        "frames/reference/0002.png",
+        "frames/perceptual-8spp/0002.png",
+        "frames/uniform-2spp/0001.png",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    // Two cached references, one per frame.
+    let refs = std::fs::read_dir(&out)
+        .unwrap()
+        .filter(|e| {
+            let n = e.as_ref().unwrap().file_name();
+            n.to_string_lossy().starts_with("reference-")
+        })
+        .count();
+    assert_eq!(refs, 2);
+}

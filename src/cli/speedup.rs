@@ -390,7 +390,7 @@ fn sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Resu
             scores: floor,
         });
         let mut images = AtomicOutputs::new();
-        if frame.is_some() {
+        {
             let p = image_path(dir, "reference", frame);
             std::fs::create_dir_all(p.parent().expect("has a parent"))?;
             let srgb = judge.display_srgb(&reference.mean)?;
