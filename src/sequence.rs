@@ -4,9 +4,11 @@
 //! [`AdaptationState`]): frame n's tone curve comes from the state reached by starting fully
 //! adapted to the first frame of the sequence and advancing by 1/fps through the stimuli of
 //! frames first..=n. A frame's stimulus (G_cone, G_rod) is the log average of its photopic and
-//! scotopic luminance, which a cheap pre-pass gives: **1 sample in every 4th pixel of every 4th
-//! row** (1/16 spp), under a seed of its own, so that the state at frame n is a deterministic
-//! function of the scene and n alone. The samples are pooled in blocks of 8 × 8 sampled pixels
+//! scotopic luminance, which a cheap pre-pass gives: **samples in every 4th pixel of every 4th
+//! row**, at least [`PREPASS_MIN_SAMPLES`] in all (1/16 spp on a large image), so that the state
+//! at frame n is a deterministic function of the scene and n alone. The pre-pass uses the same
+//! random numbers in every frame (common random numbers: the render seed, not the frame's), so
+//! its noise cannot make the tone curve flicker: an unchanged image gives an unchanged stimulus. The samples are pooled in blocks of 8 × 8 sampled pixels
 //! (32 × 32 image pixels, 64 samples) before the logarithm: the log of single path-traced
 //! samples is biased low by their noise (Jensen's inequality; at 1 spp on the Cornell box the
 //! adaptation came out several times too dark), while the log average is meant to see the
@@ -24,6 +26,10 @@ use perception::tmo::pattanaik00::AdaptationState;
 /// Spacing of the adaptation pre-pass's pixels, both axes.
 pub const PREPASS_STRIDE: usize = 4;
 
+/// Fewest samples of a pre-pass: the log average's noise is then below about 1 % per frame on
+/// the bundled scenes, and the neural adaptation's low-pass (t0 = 80 ms) halves it again.
+pub const PREPASS_MIN_SAMPLES: usize = 16_384;
+
 /// Sampled pixels per block side pooled before the logarithm.
 pub const PREPASS_POOL: usize = 8;
 
@@ -33,15 +39,20 @@ const PREPASS_SEED_XOR: u64 = 0x510E_527F_ADE6_82D1;
 /// The stimuli (G_cone, G_rod), cd/m², of the scene's current frame from the 1/16-spp pre-pass.
 pub fn adaptation_stimulus(scene: &Scene) -> (f64, f64) {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let sampled = w.div_ceil(PREPASS_STRIDE) * h.div_ceil(PREPASS_STRIDE);
+    let spp = PREPASS_MIN_SAMPLES.div_ceil(sampled).max(1) as u32;
     let counts: Vec<u32> = (0..w * h)
-        .map(|i| u32::from((i % w) % PREPASS_STRIDE == 0 && (i / w) % PREPASS_STRIDE == 0))
+        .map(|i| {
+            let on = (i % w) % PREPASS_STRIDE == 0 && (i / w) % PREPASS_STRIDE == 0;
+            if on { spp } else { 0 }
+        })
         .collect();
     let integrator = Integrator {
         max_depth: scene.settings.max_depth,
         strategy: Strategy::Mis,
     };
     let mut film = Film::new(w as u32, h as u32);
-    let seed = scene.frame_seed() ^ PREPASS_SEED_XOR;
+    let seed = scene.settings.seed ^ PREPASS_SEED_XOR;
     render_counts_seeded(scene, &integrator, &mut film, &counts, seed, &|_| {});
     let k = scene.settings.luminance_scale as f64;
     let block = PREPASS_STRIDE * PREPASS_POOL;

@@ -453,3 +453,59 @@ fn sequence_speedup_runs_end_to_end_on_a_tiny_scene() {
         .count();
     assert_eq!(refs, 2);
 }
+
+#[test]
+fn thresholds_and_tone_curves_do_not_flicker_on_a_static_sequence() {
+    use aleph::adaptive::{AdaptiveSettings, SamplerKind};
+    use aleph::sequence::AdaptationCourse;
+    // The Cornell box as a sequence without keys: every frame is the same image up to noise.
+    let dir = tempdir();
+    let src = std::fs::read_to_string(repo("scenes/cornell-box/scene.toml"))
+        .unwrap()
+        .replace("resolution = [512, 512]", "resolution = [48, 48]")
+        + "\n[animation]\nfps = 24.0\nframes = [0, 5]\n";
+    std::fs::copy(
+        repo("scenes/cornell-box/CornellBox-Original.obj"),
+        dir.path().join("CornellBox-Original.obj"),
+    )
+    .unwrap();
+    std::fs::copy(
+        repo("scenes/cornell-box/CornellBox-Original.mtl"),
+        dir.path().join("CornellBox-Original.mtl"),
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("scene.toml"), src).unwrap();
+    let mut scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
+    let course = AdaptationCourse::compute(&mut scene, 5).unwrap().unwrap();
+    let states: Vec<f64> = (0..=5).map(|f| course.state_at(f).cone_neural).collect();
+    for w in states.windows(2) {
+        assert!(
+            (w[1] / w[0] - 1.0).abs() < 0.02,
+            "adaptation jumps between identical frames: {states:?}"
+        );
+    }
+    let mut maps = Vec::new();
+    for f in [2, 3] {
+        scene.set_frame(f).unwrap();
+        let mut s = AdaptiveSettings {
+            sampler: SamplerKind::Perceptual,
+            budget_spp: Some(16.0),
+            ..Default::default()
+        };
+        s.tone.operator = perception::tmo::Operator::Ptyg;
+        s.tone.luminance_scale = scene.settings.luminance_scale;
+        s.tone.adaptation_state = Some(course.state_at(f));
+        let r = aleph::adaptive::render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap();
+        maps.push(r.threshold.unwrap());
+    }
+    let mut rel: Vec<f64> = maps[0]
+        .iter()
+        .zip(&maps[1])
+        .map(|(a, b)| ((b - a) / a.max(1e-9)).abs() as f64)
+        .collect();
+    rel.sort_by(f64::total_cmp);
+    let median = rel[rel.len() / 2];
+    let p90 = rel[rel.len() * 9 / 10];
+    eprintln!("threshold change between identical frames: median {median:.4}, p90 {p90:.4}");
+    assert!(median < 0.05 && p90 < 0.15, "median {median}, p90 {p90}");
+}

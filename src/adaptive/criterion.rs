@@ -102,7 +102,10 @@ impl PerceptualCriterion {
         let n_px = w * h;
         let t_guide = Instant::now();
         let spp = s.guide_spp.max(1);
-        let albedo = render_albedo(scene, spp, scene.frame_seed() ^ GUIDE_SEED_XOR);
+        // Common random numbers across the frames of a sequence (the render seed, not the
+        // frame's): the guide's own noise then cannot make the masking, and so the threshold,
+        // flicker from frame to frame.
+        let albedo = render_albedo(scene, spp, scene.settings.seed ^ GUIDE_SEED_XOR);
         let guide_time = t_guide.elapsed();
         self.guide_stats = Some(RenderStats {
             samples: spp as u64 * n_px as u64,
