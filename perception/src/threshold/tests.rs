@@ -247,3 +247,31 @@ fn noise_threshold_rises_with_velocity_as_the_csf_predicts() {
         "fast content should tolerate much more noise: {prev}"
     );
 }
+
+#[test]
+fn tracking_a_target_raises_thresholds_of_what_does_not_move_with_it() {
+    // A static grating seen while the eye pursues a target moving at 20 deg/s: the grating slips
+    // across the retina at the eye's speed (0.82 · 20 + 0.15 = 16.55 deg/s), so its threshold
+    // rises well above the per-pixel assumption (static content, eye at rest). Content moving
+    // with the target keeps Daly's per-pixel residual.
+    let (w, h) = (128, 64);
+    let view = view32(w).with_fps(32.0).unwrap();
+    let img = grating(w, h, 8.0, 100.0, 0.05);
+    let mapper = ThresholdMapper::new(w, h, view, ThresholdParams::default()).unwrap();
+    let c = (h / 2) * w + w / 2;
+    let zero = vec![0f32; 2 * w * h];
+    let eye = EyeTracking::Target([20.0, 0.0]);
+    let per_pixel = mapper.compute(&img, Some(&zero)).unwrap();
+    let tracked = mapper.compute_tracked(&img, Some(&zero), eye).unwrap();
+    assert!(
+        tracked.noise_contrast[c] > 1.5 * per_pixel.noise_contrast[c],
+        "tracked {} vs per-pixel {}",
+        tracked.noise_contrast[c],
+        per_pixel.noise_contrast[c]
+    );
+    // 20 deg/s = 20 px/frame here (32 fps, 32 ppd): moving with the target.
+    let with_target: Vec<f32> = (0..w * h).flat_map(|_| [20.0f32, 0.0]).collect();
+    let a = mapper.compute_tracked(&img, Some(&with_target), eye).unwrap();
+    let b = mapper.compute(&img, Some(&with_target)).unwrap();
+    assert!((a.threshold[c] / b.threshold[c] - 1.0).abs() < 1e-3);
+}
