@@ -11,6 +11,15 @@ use std::process::ExitCode;
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
+/// Exit status after SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
+const EXIT_INTERRUPTED: i32 = 130;
+
 fn main() -> ExitCode {
+    // An interrupted write leaves no temporary file behind (a signal skips destructors).
+    let _ = ctrlc::set_handler(|| {
+        aleph::output::remove_staged_temporaries();
+        eprintln!("aleph: interrupted");
+        std::process::exit(EXIT_INTERRUPTED);
+    });
     cli::main()
 }

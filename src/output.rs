@@ -12,8 +12,9 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum OutputError {
-    /// The file could not be created, written or renamed into place.
-    #[error("{}: cannot write: {source}", path.display())]
+    /// The file could not be created, written or renamed into place (the cause is the error's
+    /// source, printed by error chains).
+    #[error("{}: cannot write", path.display())]
     Io {
         /// Destination.
         path: PathBuf,
@@ -29,6 +30,31 @@ pub enum OutputError {
         /// Encoder message.
         message: String,
     },
+}
+
+/// Temporary files of every [`AtomicOutputs`] in this process that are not yet committed or
+/// dropped, for [`remove_staged_temporaries`] to delete when the process is interrupted.
+static STAGED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+fn unregister(path: &Path) {
+    if let Ok(mut v) = STAGED.lock() {
+        v.retain(|p| p != path);
+    }
+}
+
+/// Deletes every staged temporary file of this process: call it from a SIGINT/SIGTERM handler
+/// before exiting, so an interrupted write leaves nothing behind (a normal drop cleans up by
+/// itself; a signal skips destructors).
+pub fn remove_staged_temporaries() {
+    remove_registered(|_| true);
+}
+
+fn remove_registered(which: impl Fn(&Path) -> bool) {
+    if let Ok(v) = STAGED.lock() {
+        for p in v.iter().filter(|p| which(p)) {
+            let _ = std::fs::remove_file(p);
+        }
+    }
 }
 
 /// Writes several files so that either all of them appear at their destinations or none does:
@@ -77,14 +103,28 @@ impl AtomicOutputs {
             builder.permissions(std::fs::Permissions::from_mode(0o644));
         }
         let tmp = builder.tempfile_in(&dir).map_err(io)?;
-        {
+        if let Ok(mut v) = STAGED.lock() {
+            v.push(tmp.path().to_path_buf());
+        }
+        let written = (|| {
             let mut w = BufWriter::new(tmp.as_file());
             write(&mut w)?;
             w.flush().map_err(io)?;
-        }
-        tmp.as_file().sync_all().map_err(io)?;
+            drop(w);
+            tmp.as_file().sync_all().map_err(io)
+        })();
+        // Registered until committed or dropped (`Drop` below); a failed write drops it now.
         self.staged.push((tmp, dest.to_path_buf()));
-        Ok(())
+        if written.is_err() {
+            self.drop_last();
+        }
+        written
+    }
+
+    fn drop_last(&mut self) {
+        if let Some((tmp, _)) = self.staged.pop() {
+            unregister(tmp.path());
+        }
     }
 
     /// Stages `dest` with the given contents (text reports, CSV, SVG).
@@ -104,19 +144,101 @@ impl AtomicOutputs {
         })
     }
 
-    /// Renames every staged file into place.
+    /// Renames every staged file into place, all or nothing: existing destinations are first
+    /// moved aside, and if any rename fails, the files already placed are removed and the old
+    /// ones put back, so a failed command replaces nothing.
     ///
     /// # Errors
-    /// [`OutputError::Io`] naming the file whose rename failed.
-    pub fn commit(self) -> std::result::Result<(), OutputError> {
-        for (tmp, dest) in self.staged {
-            tmp.persist(&dest).map_err(|e| OutputError::Io {
-                path: dest.clone(),
-                source: e.error,
-            })?;
+    /// [`OutputError::Io`] naming the file whose rename failed (a destination that is a
+    /// directory is refused before anything moves).
+    pub fn commit(mut self) -> std::result::Result<(), OutputError> {
+        let mut staged = std::mem::take(&mut self.staged);
+        for (_, dest) in &staged {
+            check_output_location(dest)?;
         }
-        Ok(())
+        let mut backups: Vec<(PathBuf, PathBuf)> = Vec::new();
+        let mut placed: Vec<PathBuf> = Vec::new();
+        let result = (|| {
+            for (_, dest) in &staged {
+                if dest.exists() {
+                    let aside = aside_name(dest);
+                    std::fs::rename(dest, &aside).map_err(|source| OutputError::Io {
+                        path: dest.clone(),
+                        source,
+                    })?;
+                    backups.push((aside, dest.clone()));
+                }
+            }
+            for (tmp, dest) in std::mem::take(&mut staged) {
+                unregister(tmp.path());
+                tmp.persist(&dest).map_err(|e| OutputError::Io {
+                    path: dest.clone(),
+                    source: e.error,
+                })?;
+                placed.push(dest);
+            }
+            Ok(())
+        })();
+        if result.is_err() {
+            for p in &placed {
+                let _ = std::fs::remove_file(p);
+            }
+            for (aside, dest) in &backups {
+                let _ = std::fs::rename(aside, dest);
+            }
+        } else {
+            for (aside, _) in &backups {
+                let _ = std::fs::remove_file(aside);
+            }
+        }
+        result
     }
+}
+
+impl Drop for AtomicOutputs {
+    fn drop(&mut self) {
+        for (tmp, _) in &self.staged {
+            unregister(tmp.path());
+        }
+    }
+}
+
+/// A hidden name beside `dest` for its old version while a commit is under way.
+fn aside_name(dest: &Path) -> PathBuf {
+    let name = dest
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    dest.with_file_name(format!(".{name}.{}.old.tmp", std::process::id()))
+}
+
+/// Checks, before any work, that `dest` can be written: its directory exists and is a
+/// directory, and `dest` itself is not a directory.
+///
+/// # Errors
+/// [`OutputError::Io`] naming `dest` and what is wrong.
+pub fn check_output_location(dest: &Path) -> std::result::Result<(), OutputError> {
+    let err = |kind: std::io::ErrorKind, what: String| OutputError::Io {
+        path: dest.to_path_buf(),
+        source: std::io::Error::new(kind, what),
+    };
+    let dir = match dest.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(err(
+            std::io::ErrorKind::NotFound,
+            format!("the directory {} does not exist", dir.display()),
+        ));
+    }
+    if dest.is_dir() {
+        return Err(err(
+            std::io::ErrorKind::IsADirectory,
+            "a directory is in the way".to_string(),
+        ));
+    }
+    Ok(())
 }
 
 /// Samples of one extra EXR channel.
@@ -400,5 +522,69 @@ mod exr_bytes_tests {
             .from_buffered(std::io::Cursor::new(&first))
             .unwrap();
         assert_eq!(image.layer_data[0].attributes.other.len(), 12);
+    }
+}
+
+#[cfg(test)]
+mod commit_tests {
+    use super::*;
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn a_failed_commit_replaces_nothing_and_leaves_no_temporary() {
+        let d = tempfile::tempdir().unwrap();
+        let (a, b) = (d.path().join("a.exr"), d.path().join("b.png"));
+        std::fs::write(&a, b"old").unwrap();
+        std::fs::create_dir(&b).unwrap();
+        let mut out = AtomicOutputs::new();
+        out.stage_bytes(&a, b"new").unwrap();
+        out.stage_bytes(&b, b"new").unwrap();
+        let e = out.commit().unwrap_err().to_string();
+        assert!(e.contains("b.png"), "{e}");
+        assert_eq!(std::fs::read(&a).unwrap(), b"old");
+        assert_eq!(names(d.path()), vec!["a.exr", "b.png"]);
+    }
+
+    #[test]
+    fn a_commit_replaces_every_file_and_removes_the_old_ones() {
+        let d = tempfile::tempdir().unwrap();
+        let (a, b) = (d.path().join("a.exr"), d.path().join("b.png"));
+        std::fs::write(&a, b"old").unwrap();
+        let mut out = AtomicOutputs::new();
+        out.stage_bytes(&a, b"new a").unwrap();
+        out.stage_bytes(&b, b"new b").unwrap();
+        out.commit().unwrap();
+        assert_eq!(std::fs::read(&a).unwrap(), b"new a");
+        assert_eq!(std::fs::read(&b).unwrap(), b"new b");
+        assert_eq!(names(d.path()), vec!["a.exr", "b.png"]);
+    }
+}
+
+#[cfg(test)]
+mod signal_tests {
+    use super::*;
+
+    #[test]
+    fn staged_temporaries_are_removed_on_interruption() {
+        let d = tempfile::tempdir().unwrap();
+        let mut out = AtomicOutputs::new();
+        out.stage_bytes(&d.path().join("a.exr"), b"x").unwrap();
+        let tmp = out.staged[0].0.path().to_path_buf();
+        assert!(tmp.exists());
+        // What the SIGINT/SIGTERM handler of the binary does before exiting
+        // (`remove_staged_temporaries`), limited to this test's directory so that tests running
+        // beside it keep their files.
+        remove_registered(|p| p.starts_with(d.path()));
+        assert!(!tmp.exists());
+        assert!(std::fs::read_dir(d.path()).unwrap().next().is_none());
+        std::mem::forget(out); // as a signal would: no destructor runs
     }
 }

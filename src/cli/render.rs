@@ -353,6 +353,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         desc.render.max_depth = Some(d);
     }
     let stem = output_stem(&args, &scene_path);
+    // Refuse an unwritable output location before rendering, not after.
+    aleph::output::check_output_location(&with_ext(&stem, "exr"))?;
+    aleph::output::check_output_location(&with_ext(&stem, "png"))?;
     with_threads(args.threads, move || render_and_write(desc, &stem, &args))?
 }
 

@@ -271,7 +271,9 @@ fn tracking_a_target_raises_thresholds_of_what_does_not_move_with_it() {
     );
     // 20 deg/s = 20 px/frame here (32 fps, 32 ppd): moving with the target.
     let with_target: Vec<f32> = (0..w * h).flat_map(|_| [20.0f32, 0.0]).collect();
-    let a = mapper.compute_tracked(&img, Some(&with_target), eye).unwrap();
+    let a = mapper
+        .compute_tracked(&img, Some(&with_target), eye)
+        .unwrap();
     let b = mapper.compute(&img, Some(&with_target)).unwrap();
     assert!((a.threshold[c] / b.threshold[c] - 1.0).abs() < 1e-3);
 }
