@@ -6,8 +6,8 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum SceneError {
-    /// A file could not be opened or read (missing, unreadable).
-    #[error("{}: cannot read file: {source}", path.display())]
+    /// A file could not be opened or read (missing, unreadable); the cause is the source.
+    #[error("{}: cannot read file", path.display())]
     Io {
         /// The file.
         path: PathBuf,

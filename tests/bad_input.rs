@@ -206,3 +206,98 @@ fn output_directory_missing() {
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("out.exr") && e.contains("cannot write"), "{e}");
 }
+
+#[test]
+fn output_directory_missing_is_refused_before_rendering() {
+    let d = tempdir();
+    let s = scene_with(d.path(), &format!("{CAMERA}{LIGHT}"), &[]);
+    let out = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(["render", "--spp", "100000", "-o"])
+        .arg(d.path().join("no/out"))
+        .arg(&s)
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{e}");
+    // Named, with the cause once, and no render (100000 spp would take minutes).
+    assert!(e.contains("does not exist") && e.contains("no"), "{e}");
+    assert_eq!(e.matches("does not exist").count(), 1, "{e}");
+    assert!(!e.contains("sampler"), "it rendered first: {e}");
+}
+
+#[test]
+fn a_failed_png_write_leaves_the_old_exr_in_place() {
+    let d = tempdir();
+    let s = scene_with(d.path(), &format!("{CAMERA}{LIGHT}"), &[]);
+    std::fs::write(d.path().join("out.exr"), b"old").unwrap();
+    std::fs::create_dir(d.path().join("out.png")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(["render", "--spp", "2", "-o"])
+        .arg(d.path().join("out"))
+        .arg(&s)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("out.png"));
+    assert_eq!(std::fs::read(d.path().join("out.exr")).unwrap(), b"old");
+    let tmp = std::fs::read_dir(d.path())
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .ends_with(".tmp")
+        })
+        .count();
+    assert_eq!(tmp, 0);
+}
+
+#[test]
+fn mtl_colour_with_two_numbers_is_a_located_error() {
+    // tobj 4 panics on `Ke 17 12`; one number is a grey (the MTL specification).
+    let d = tempdir();
+    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n");
+    let mtl = "newmtl white\nKe 17 12\n";
+    let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", mtl)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["m.mtl", "line 2", "Ke 17 12", "1 or 3 numbers"]);
+    let grey = "newmtl white\nKd 0.5\n";
+    let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", grey)]);
+    let scene = aleph::scene::Scene::load(&s).unwrap();
+    let m = &scene.materials[0];
+    assert_eq!(m.name, "white");
+    assert!(
+        matches!(m.kd, aleph::material::ColorSource::Constant(c) if c == glam::Vec3::splat(0.5))
+    );
+}
+
+#[test]
+fn huge_coordinates_are_located_errors_not_panics() {
+    let d = tempdir();
+    let light = "[[light]]\ntype = \"quad\"\ncorner = [0, 1.9, 0]\nedge1 = [1e30, 0, 0]\n\
+                 edge2 = [0, 0, 1e30]\nradiance = [1, 1, 1]\n";
+    let s = scene_with(d.path(), &format!("{CAMERA}{light}"), &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "[[light]] #1", "beyond"]);
+    let obj = "mtllib m.mtl\nv -3e38 0 -1\nv 3e38 0 -1\nv 0 0 3e38\nusemtl white\nf 1 2 3\n";
+    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n");
+    let s = scene_with(d.path(), &toml, &[("t.obj", obj), ("m.mtl", MTL)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["t.obj", "beyond"]);
+}
+
+#[test]
+fn arrays_have_exact_lengths() {
+    let d = tempdir();
+    let cam = CAMERA.replace("resolution = [8, 8]", "resolution = [32, 32, 99]");
+    let s = scene_with(d.path(), &format!("{cam}{LIGHT}"), &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "line 5", "exactly 2"]);
+    let toml = format!(
+        "{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n[materials.white]\nreflectance = [0.5, 0.5, 0.5, 9]\n"
+    );
+    let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", MTL)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "exactly 3"]);
+}

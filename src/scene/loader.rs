@@ -17,6 +17,51 @@ use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
+/// Fixed-length arrays that refuse extra or missing elements: serde's own array impl reads the
+/// first N elements and the TOML deserializer then drops the rest silently
+/// (`resolution = [32, 32, 99]` was accepted).
+mod exact {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    fn fixed<'de, D: Deserializer<'de>, T, const N: usize>(v: Vec<T>) -> Result<[T; N], D::Error> {
+        let n = v.len();
+        v.try_into()
+            .map_err(|_| D::Error::invalid_length(n, &format!("exactly {N} numbers").as_str()))
+    }
+
+    pub fn array<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        fixed::<D, T, N>(Vec::deserialize(d)?)
+    }
+
+    pub fn option<'de, D, T, const N: usize>(d: D) -> Result<Option<[T; N]>, D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        Option::<Vec<T>>::deserialize(d)?
+            .map(fixed::<D, T, N>)
+            .transpose()
+    }
+
+    pub fn matrix4<'de, D>(d: D) -> Result<Option<[[f32; 4]; 4]>, D::Error>
+    where
+        D: Deserializer<'de>,
+    {
+        let Some(rows) = Option::<Vec<Vec<f32>>>::deserialize(d)? else {
+            return Ok(None);
+        };
+        let rows: Vec<[f32; 4]> = rows
+            .into_iter()
+            .map(fixed::<D, f32, 4>)
+            .collect::<Result<_, _>>()?;
+        fixed::<D, [f32; 4], 4>(rows).map(Some)
+    }
+}
+
 /// The parsed scene file, before any mesh is loaded. Command-line overrides are applied to it
 /// before [`SceneDescription::build`].
 #[derive(Clone, Debug, Deserialize)]
@@ -49,15 +94,19 @@ pub struct SceneDescription {
 #[serde(deny_unknown_fields)]
 pub struct CameraDesc {
     /// Eye position.
+    #[serde(deserialize_with = "exact::array")]
     pub position: [f32; 3],
     /// Point looked at.
+    #[serde(deserialize_with = "exact::array")]
     pub look_at: [f32; 3],
     /// Up vector (default +y).
     #[serde(default = "default_up")]
+    #[serde(deserialize_with = "exact::array")]
     pub up: [f32; 3],
     /// Vertical field of view in degrees, in (0, 180).
     pub vfov_deg: f32,
     /// Width and height in pixels, each in 1..=65536.
+    #[serde(deserialize_with = "exact::array")]
     pub resolution: [u32; 2],
     /// `[[camera.keys]]`: keyframes; a missing value holds the previous key's (the first key's
     /// default to the table's own).
@@ -72,10 +121,13 @@ pub struct CameraKeyDesc {
     /// Time, seconds.
     pub time: f64,
     /// Eye position.
+    #[serde(default, deserialize_with = "exact::option")]
     pub position: Option<[f32; 3]>,
     /// Point looked at.
+    #[serde(default, deserialize_with = "exact::option")]
     pub look_at: Option<[f32; 3]>,
     /// Up vector.
+    #[serde(default, deserialize_with = "exact::option")]
     pub up: Option<[f32; 3]>,
     /// Vertical field of view, degrees.
     pub vfov_deg: Option<f32>,
@@ -88,6 +140,7 @@ pub struct AnimationDesc {
     /// Frames per second, > 0.
     pub fps: f64,
     /// First and last frame, inclusive.
+    #[serde(deserialize_with = "exact::array")]
     pub frames: [i64; 2],
     /// Shutter interval as a fraction of the frame, in [0, 1] (default 0.5, a 180° shutter;
     /// 0: no motion blur).
@@ -103,8 +156,10 @@ pub struct TransformKeyDesc {
     /// Time, seconds.
     pub time: f64,
     /// Translation.
+    #[serde(default, deserialize_with = "exact::option")]
     pub translate: Option<[f32; 3]>,
     /// Rotations about x, then y, then z, degrees.
+    #[serde(default, deserialize_with = "exact::option")]
     pub rotate_deg: Option<[f32; 3]>,
     /// Uniform or per-axis scale.
     pub scale: Option<ScaleDesc>,
@@ -156,10 +211,13 @@ pub struct TransformDesc {
     /// Uniform (number) or per-axis (array) scale.
     pub scale: Option<ScaleDesc>,
     /// Rotations about x, then y, then z, in degrees.
+    #[serde(default, deserialize_with = "exact::option")]
     pub rotate_deg: Option<[f32; 3]>,
     /// Translation.
+    #[serde(default, deserialize_with = "exact::option")]
     pub translate: Option<[f32; 3]>,
     /// Row-major 4×4 matrix (exclusive with the other keys).
+    #[serde(default, deserialize_with = "exact::matrix4")]
     pub matrix: Option<[[f32; 4]; 4]>,
 }
 
@@ -170,7 +228,7 @@ pub enum ScaleDesc {
     /// Same factor on every axis.
     Uniform(f32),
     /// Per-axis factors.
-    PerAxis([f32; 3]),
+    PerAxis(#[serde(deserialize_with = "exact::array")] [f32; 3]),
 }
 
 /// Material class names in overrides.
@@ -195,16 +253,20 @@ pub struct MaterialOverride {
     #[serde(rename = "type")]
     pub kind: Option<MaterialType>,
     /// Diffuse reflectance (diffuse, glossy) or mirror reflectance (mirror), [0,1] each.
+    #[serde(default, deserialize_with = "exact::option")]
     pub reflectance: Option<[f32; 3]>,
     /// Specular reflectance of the glossy lobe, [0,1] each.
+    #[serde(default, deserialize_with = "exact::option")]
     pub specular: Option<[f32; 3]>,
     /// GGX α of the glossy lobe, in (0, 1].
     pub alpha: Option<f32>,
     /// Index of refraction of a dielectric, > 0.
     pub ior: Option<f32>,
     /// Transmission filter of a dielectric, [0,1] each.
+    #[serde(default, deserialize_with = "exact::option")]
     pub transmittance: Option<[f32; 3]>,
     /// Emitted radiance, W·sr⁻¹·m⁻², ≥ 0 each (all zero removes emission).
+    #[serde(default, deserialize_with = "exact::option")]
     pub emission: Option<[f32; 3]>,
 }
 
@@ -216,12 +278,16 @@ pub enum LightDesc {
     /// edge1 × edge2.
     Quad {
         /// One corner.
+        #[serde(deserialize_with = "exact::array")]
         corner: [f32; 3],
         /// First edge.
+        #[serde(deserialize_with = "exact::array")]
         edge1: [f32; 3],
         /// Second edge.
+        #[serde(deserialize_with = "exact::array")]
         edge2: [f32; 3],
         /// Emitted radiance, W·sr⁻¹·m⁻².
+        #[serde(deserialize_with = "exact::array")]
         radiance: [f32; 3],
     },
 }
@@ -343,6 +409,16 @@ impl SceneDescription {
                         );
                     }
                     let (c, e1, e2) = (Vec3::from(*corner), Vec3::from(*edge1), Vec3::from(*edge2));
+                    let far = [c, c + e1, c + e2, c + e1 + e2]
+                        .iter()
+                        .any(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE);
+                    if far {
+                        return Err(self.invalid(format!(
+                            "[[light]] #{}: corners beyond ±{MAX_COORDINATE:e}, where f32 \
+                             arithmetic overflows",
+                            i + 1
+                        )));
+                    }
                     if e1.cross(e2).length() <= 0.0 {
                         return Err(self.invalid(format!(
                             "[[light]] #{}: edge1 and edge2 must span a non-zero area",
@@ -386,7 +462,9 @@ impl SceneDescription {
             ),
             None => (0.0, 0.0),
         };
-        let geometry = Geometry::with_instances(b.tris, tracks, time_range);
+        self.check_motion_extent(&b.tris, &tracks)?;
+        let geometry = build_geometry(b.tris, tracks, time_range)
+            .map_err(|msg| self.invalid(format!("building the BVH failed: {msg}")))?;
         let mut scene = Scene {
             camera,
             settings,
@@ -403,6 +481,32 @@ impl SceneDescription {
             scene.set_frame(a.frame_start)?;
         }
         Ok(scene)
+    }
+
+    /// Every moving mesh stays within ±[`MAX_COORDINATE`] at its keys.
+    fn check_motion_extent(
+        &self,
+        tris: &[TriangleAttributes],
+        tracks: &[TransformTrack],
+    ) -> SceneResult<()> {
+        for (i, track) in tracks.iter().enumerate() {
+            for key in track.keys() {
+                let m = track.at(key.time_s);
+                let far = tris
+                    .iter()
+                    .filter(|t| t.instance == i as u32)
+                    .flat_map(|t| t.p)
+                    .map(|p| m.transform_point3(p))
+                    .any(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE);
+                if far {
+                    return Err(self.invalid(format!(
+                        "a moving mesh's key at {} s carries it beyond ±{MAX_COORDINATE:e}",
+                        key.time_s
+                    )));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// `[animation]`, validated.
@@ -784,6 +888,25 @@ pub fn parse_texture_spec(s: &str) -> Option<TextureSpec> {
     })
 }
 
+/// Builds the BVHs, turning a panic inside the BVH library into an error (the scene is
+/// validated first, so this is a last line of defence, silent on stderr).
+fn build_geometry(
+    tris: Vec<TriangleAttributes>,
+    tracks: Vec<TransformTrack>,
+    time_range: (f32, f32),
+) -> Result<Geometry, String> {
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let r = std::panic::catch_unwind(move || Geometry::with_instances(tris, tracks, time_range));
+    std::panic::set_hook(hook);
+    r.map_err(|e| {
+        e.downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| e.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic in the BVH builder".into())
+    })
+}
+
 /// Which objects of an OBJ file a `[[mesh]]` takes.
 struct ObjectFilter<'a> {
     only: Option<&'a [String]>,
@@ -977,14 +1100,27 @@ impl Builder {
         let (models, materials) = tobj::load_obj_buf(&mut text.as_slice(), &opts, |name| {
             let full = dir.join(name);
             mtl_paths.borrow_mut().push(full.clone());
-            let r = tobj::load_mtl(&full);
-            if let Err(e) = &r {
-                let msg = if full.exists() {
-                    format!("{e}")
-                } else {
-                    "file not found".to_string()
-                };
+            let text = match std::fs::read(&full) {
+                Ok(t) => t,
+                Err(e) => {
+                    let msg = if full.exists() {
+                        format!("cannot read: {e}")
+                    } else {
+                        "file not found".to_string()
+                    };
+                    mtl_failure.borrow_mut().get_or_insert((full.clone(), msg));
+                    return Err(tobj::LoadError::OpenFileFailed);
+                }
+            };
+            let r = normalize_mtl(&text).map_err(|msg| {
                 mtl_failure.borrow_mut().get_or_insert((full.clone(), msg));
+                tobj::LoadError::MaterialParseError
+            });
+            let r = r.and_then(|t| tobj::load_mtl_buf(&mut t.as_bytes()));
+            if let Err(e) = &r {
+                mtl_failure
+                    .borrow_mut()
+                    .get_or_insert((full.clone(), format!("{e}")));
             }
             r
         })
@@ -1031,6 +1167,14 @@ impl Builder {
                 if p.iter().any(|v| !v.is_finite()) {
                     return Err(obj_err(format!(
                         "object {:?}, face {}: vertex position is NaN or infinite",
+                        model.name,
+                        f + 1
+                    )));
+                }
+                if p.iter().any(|v| v.abs().max_element() > MAX_COORDINATE) {
+                    return Err(obj_err(format!(
+                        "object {:?}, face {}: a vertex lies beyond ±{MAX_COORDINATE:e} (after the \
+                         transform), where f32 arithmetic overflows",
                         model.name,
                         f + 1
                     )));
@@ -1094,6 +1238,43 @@ impl Builder {
             self.materials.len() as u32 - 1
         })
     }
+}
+
+/// Largest coordinate magnitude accepted anywhere in a scene, world units. Beyond it f32
+/// arithmetic in the BVH build overflows (obvhs panicked at ±3e38 and on 1e30-sized lights);
+/// 1e15 leaves every physically sensible unit, from nanometres to light years, room.
+pub const MAX_COORDINATE: f32 = 1e15;
+
+/// Validates an MTL file and returns its text in the form tobj parses without panicking: the
+/// colour statements `Ka`, `Kd`, `Ks`, `Ke` take 1 number (a grey, which the MTL specification
+/// expands to three) or 3, and anything else is a located error (tobj 4 panics on two).
+fn normalize_mtl(bytes: &[u8]) -> Result<String, String> {
+    let text = String::from_utf8_lossy(bytes);
+    let mut out = String::with_capacity(text.len());
+    for (lineno, line) in text.lines().enumerate() {
+        let mut toks = line.split_whitespace();
+        let kw = toks.next().unwrap_or("");
+        if matches!(kw, "Ka" | "Kd" | "Ks" | "Ke") {
+            let vals: Vec<&str> = toks.collect();
+            let nums: Vec<f32> = vals.iter().filter_map(|t| t.parse().ok()).collect();
+            let fixed = match (vals.len(), nums.len()) {
+                (1, 1) => format!("{kw} {} {} {}", nums[0], nums[0], nums[0]),
+                (3, 3) => line.trim().to_string(),
+                _ => {
+                    return Err(format!(
+                        "line {}: `{}`: {kw} takes 1 or 3 numbers",
+                        lineno + 1,
+                        line.trim()
+                    ));
+                }
+            };
+            out.push_str(&fixed);
+        } else {
+            out.push_str(line);
+        }
+        out.push('\n');
+    }
+    Ok(out)
 }
 
 /// Checks every `v`/`vn`/`vt` line for non-finite numbers so the error can name the line.
