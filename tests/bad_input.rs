@@ -301,3 +301,11 @@ fn arrays_have_exact_lengths() {
     let e = fails(d.path(), &s, &[]);
     assert_mentions(&e, &["scene.toml", "exactly 3"]);
 }
+
+#[test]
+fn a_resolution_beyond_memory_is_refused_with_the_figures() {
+    let d = tempdir();
+    let s = scene_with(d.path(), &format!("{CAMERA}{LIGHT}"), &[]);
+    let e = fails(d.path(), &s, &["--resolution", "65536x65536"]);
+    assert_mentions(&e, &["scene.toml", "65536×65536", "GiB", "bytes per pixel"]);
+}

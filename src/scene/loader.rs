@@ -701,6 +701,7 @@ impl SceneDescription {
                 "camera.resolution must be in 1..=65536 on both axes, got {w}×{h}"
             )));
         }
+        check_memory(w, h).map_err(|m| self.invalid(m))?;
         if !(c.vfov_deg > 0.0 && c.vfov_deg < 180.0) {
             return Err(self.invalid(format!(
                 "camera.vfov_deg must be in (0, 180) degrees, got {}",
@@ -1240,6 +1241,35 @@ impl Builder {
     }
 }
 
+/// Peak memory of a render per pixel, bytes (film, half-buffers, the perception model's images
+/// and FFT canvases). Measured as the slope of peak RSS between 1024² and 2048² renders: 183 B
+/// for the perceptual sampler, 114 B for uniform; rounded up. Scene data (BVH, textures) comes
+/// on top.
+pub const RENDER_BYTES_PER_PIXEL: u64 = 200;
+
+/// Memory the system can give now, bytes (`MemAvailable` of /proc/meminfo); `None` where it
+/// cannot be read.
+fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Refuses a resolution whose render would not fit in the available memory, with both figures.
+fn check_memory(w: u32, h: u32) -> Result<(), String> {
+    let need = w as u64 * h as u64 * RENDER_BYTES_PER_PIXEL;
+    match available_memory() {
+        Some(avail) if need > avail => Err(format!(
+            "camera.resolution {w}×{h} needs about {:.1} GiB to render ({RENDER_BYTES_PER_PIXEL} \
+             bytes per pixel), more than the {:.1} GiB of memory available",
+            need as f64 / (1u64 << 30) as f64,
+            avail as f64 / (1u64 << 30) as f64
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// Largest coordinate magnitude accepted anywhere in a scene, world units. Beyond it f32
 /// arithmetic in the BVH build overflows (obvhs panicked at ±3e38 and on 1e30-sized lights);
 /// 1e15 leaves every physically sensible unit, from nanometres to light years, room.
@@ -1247,19 +1277,21 @@ pub const MAX_COORDINATE: f32 = 1e15;
 
 /// Validates an MTL file and returns its text in the form tobj parses without panicking: the
 /// colour statements `Ka`, `Kd`, `Ks`, `Ke` take 1 number (a grey, which the MTL specification
-/// expands to three) or 3, and anything else is a located error (tobj 4 panics on two).
+/// expands to three) or 3 (more are ignored, as tobj does; `#` starts a comment), and anything
+/// else is a located error (tobj 4 panics on two).
 fn normalize_mtl(bytes: &[u8]) -> Result<String, String> {
     let text = String::from_utf8_lossy(bytes);
     let mut out = String::with_capacity(text.len());
     for (lineno, line) in text.lines().enumerate() {
-        let mut toks = line.split_whitespace();
+        let content = line.split('#').next().unwrap_or("");
+        let mut toks = content.split_whitespace();
         let kw = toks.next().unwrap_or("");
         if matches!(kw, "Ka" | "Kd" | "Ks" | "Ke") {
             let vals: Vec<&str> = toks.collect();
-            let nums: Vec<f32> = vals.iter().filter_map(|t| t.parse().ok()).collect();
+            let nums: Vec<f32> = vals.iter().map_while(|t| t.parse().ok()).collect();
             let fixed = match (vals.len(), nums.len()) {
                 (1, 1) => format!("{kw} {} {} {}", nums[0], nums[0], nums[0]),
-                (3, 3) => line.trim().to_string(),
+                (_, n) if n >= 3 => content.trim().to_string(),
                 _ => {
                     return Err(format!(
                         "line {}: `{}`: {kw} takes 1 or 3 numbers",
