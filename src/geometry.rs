@@ -54,17 +54,13 @@ impl TriangleAttributes {
     /// Unit geometric normal from the winding (v1 − v0) × (v2 − v0).
     #[inline]
     pub fn geometric_normal(&self) -> Vec3 {
-        (self.p[1] - self.p[0])
-            .cross(self.p[2] - self.p[0])
-            .normalize_or_zero()
+        crate::math::robust_normalize((self.p[1] - self.p[0]).cross(self.p[2] - self.p[0]))
     }
 
     /// Surface area.
     #[inline]
     pub fn area(&self) -> f32 {
-        0.5 * (self.p[1] - self.p[0])
-            .cross(self.p[2] - self.p[0])
-            .length()
+        0.5 * crate::math::robust_length((self.p[1] - self.p[0]).cross(self.p[2] - self.p[0]))
     }
 }
 
@@ -434,7 +430,7 @@ impl Geometry {
             None => (a.p, a.geometric_normal(), a.n),
             Some(m) => {
                 let p = a.p.map(|v| m.transform_point3(v));
-                let ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+                let ng = crate::math::robust_normalize((p[1] - p[0]).cross(p[2] - p[0]));
                 let nm = m.matrix3.inverse().transpose();
                 (
                     p,

@@ -64,6 +64,56 @@ pub enum ImageError {
         /// The file.
         path: PathBuf,
     },
+    /// Every pixel is black: there is no luminance to adapt to or tone map.
+    #[error("{}: every pixel is black (nothing to tone map)", path.display())]
+    AllBlack {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The luminance scale (cd/m² per unit) is not a positive number.
+    #[error("{}: {origin} must be a positive number of cd/m² per unit, got {value}", path.display())]
+    LuminanceScale {
+        /// The image file.
+        path: PathBuf,
+        /// Where the value came from: the `--luminance-scale` option or the file's
+        /// `whiteLuminance` attribute.
+        origin: &'static str,
+        /// The value.
+        value: f32,
+    },
+}
+
+impl RgbImage {
+    /// cd/m² per unit of the image's values: display-encoded images (PNG, JPEG) show white at
+    /// [`perception::photometry::SRGB_WHITE_CD_M2`] (100); linear ones take `explicit` (a
+    /// user's `--luminance-scale`), else the EXR's `whiteLuminance`, else 100 (so 1.0 is a
+    /// 100 cd/m² display white). The one rule of `aleph diff` and `aleph tonemap`.
+    ///
+    /// # Errors
+    /// [`ImageError::LuminanceScale`] naming `path` and where the bad value came from.
+    pub fn luminance_scale(&self, path: &Path, explicit: Option<f32>) -> Result<f32, ImageError> {
+        let white = perception::photometry::SRGB_WHITE_CD_M2;
+        let (value, origin) = match (self.encoding, explicit, self.white_luminance) {
+            (Encoding::DisplaySrgb, _, _) => (white, "the display white"),
+            (Encoding::Linear, Some(k), _) => (k, "--luminance-scale"),
+            (Encoding::Linear, None, Some(k)) => (k, "the file's whiteLuminance attribute"),
+            (Encoding::Linear, None, None) => (white, "the default"),
+        };
+        if value.is_finite() && value > 0.0 {
+            Ok(value)
+        } else {
+            Err(ImageError::LuminanceScale {
+                path: path.to_path_buf(),
+                origin,
+                value,
+            })
+        }
+    }
+
+    /// True when every value is zero.
+    pub fn is_black(&self) -> bool {
+        self.rgb.iter().all(|&v| v == 0.0)
+    }
 }
 
 fn extension(path: &Path) -> String {

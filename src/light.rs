@@ -46,18 +46,33 @@ impl Lights {
         textures: &[Texture],
     ) -> Option<Lights> {
         let mut ids = Vec::new();
-        let mut weights = Vec::new();
+        let mut powers: Vec<(f32, f64)> = Vec::new();
         for (i, t) in tris.iter_mut().enumerate() {
             t.light = u32::MAX;
             let m = &materials[t.material as usize];
             let Some(e) = &m.emission else { continue };
-            let power = crate::math::luminance(e.mean(textures).max(Vec3::ZERO)) * t.area() * PI;
-            if power > 0.0 && power.is_finite() {
+            let y = crate::math::luminance(e.mean(textures).max(Vec3::ZERO));
+            let p32 = y * t.area() * PI;
+            // Also in f64: the power of a bright, large emitter overflows f32 and that of a
+            // faint, tiny one underflows it; such lights must not silently vanish.
+            let p64 = y as f64 * t.area() as f64 * std::f64::consts::PI;
+            if p64 > 0.0 && p64.is_finite() {
                 t.light = ids.len() as u32;
                 ids.push(i as u32);
-                weights.push(power);
+                powers.push((p32, p64));
             }
         }
+        let f32_ok = powers.iter().all(|&(p, _)| p > 0.0 && p.is_finite());
+        let weights: Vec<f32> = if f32_ok {
+            powers.iter().map(|&(p, _)| p).collect()
+        } else {
+            // Relative weights, which f32 holds whatever the absolute scale.
+            let max = powers.iter().map(|&(_, p)| p).fold(0.0, f64::max);
+            powers
+                .iter()
+                .map(|&(_, p)| ((p / max) as f32).max(f32::MIN_POSITIVE))
+                .collect()
+        };
         let dist = Distribution1D::new(weights)?;
         Some(Lights { tris: ids, dist })
     }
@@ -100,8 +115,8 @@ impl Lights {
         let b0 = 1.0 - b.x - b.y;
         let p = v[0] * b.x + v[1] * b.y + v[2] * b0;
         let cross = (v[1] - v[0]).cross(v[2] - v[0]);
-        let n = cross.normalize_or_zero();
-        let area = 0.5 * cross.length();
+        let n = crate::math::robust_normalize(cross);
+        let area = 0.5 * crate::math::robust_length(cross);
         let d = p - p_ref;
         let dist2 = d.length_squared();
         if dist2 <= 0.0 || area <= 0.0 {
@@ -136,8 +151,8 @@ impl Lights {
         }
         let v = geo.world_vertices(tri, time);
         let cross = (v[1] - v[0]).cross(v[2] - v[0]);
-        let n = cross.normalize_or_zero();
-        let area = 0.5 * cross.length();
+        let n = crate::math::robust_normalize(cross);
+        let area = 0.5 * crate::math::robust_length(cross);
         let d = p_light - p_ref;
         let dist2 = d.length_squared();
         let cos_l = (-d.dot(n) / dist2.sqrt()).max(0.0);

@@ -61,6 +61,16 @@ impl ColorSource {
         }
     }
 
+    /// The largest value over the texture, per channel (the constant itself if constant).
+    pub fn max(&self, textures: &[Texture]) -> Vec3 {
+        match *self {
+            ColorSource::Constant(c) => c,
+            ColorSource::Texture { id, base, gain } => {
+                Vec3::splat(base) + gain * textures[id as usize].max()
+            }
+        }
+    }
+
     /// True for a constant zero colour.
     pub fn is_black(&self) -> bool {
         matches!(self, ColorSource::Constant(c) if c.max_element() <= 0.0)

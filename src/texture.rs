@@ -86,6 +86,11 @@ impl Texture {
         self.mean
     }
 
+    /// Per-channel largest texel value.
+    pub fn max(&self) -> Vec3 {
+        self.texels.iter().fold(Vec3::ZERO, |a, &t| a.max(t))
+    }
+
     /// Bilinearly filtered value at texture coordinates `uv` (OBJ convention: v = 0 at the
     /// bottom of the image), wrapping with period 1.
     #[inline]

@@ -309,3 +309,106 @@ fn a_resolution_beyond_memory_is_refused_with_the_figures() {
     let e = fails(d.path(), &s, &["--resolution", "65536x65536"]);
     assert_mentions(&e, &["scene.toml", "65536×65536", "GiB", "bytes per pixel"]);
 }
+
+/// Runs `aleph ARGS…`, expects exit 2, returns stderr.
+fn aleph_fails(args: &[&std::ffi::OsStr]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(args)
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(2), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    e
+}
+
+#[test]
+fn overflowing_emitters_and_scales_name_what_overflows() {
+    let d = tempdir();
+    let bright = LIGHT.replace("radiance = [1, 1, 1]", "radiance = [3e38, 1, 1]");
+    let s = scene_with(d.path(), &format!("{CAMERA}{bright}"), &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "light#1", "overflows"]);
+    let s = scene_with(
+        d.path(),
+        &format!("{CAMERA}[render]\nluminance_scale = 3e38\n{LIGHT}"),
+        &[],
+    );
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "render.luminance_scale"]);
+    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n");
+    let mtl = "newmtl white\nKd 0.5 0.5 0.5\nKe 3e38 3e38 3e38\n";
+    let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", mtl)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "\"white\"", "emission"]);
+}
+
+#[test]
+fn lights_whose_f32_power_overflows_or_underflows_still_light_the_scene() {
+    let d = tempdir();
+    // Power 1e9 × (1e15)² × π overflows f32; 1e-38 × (1e-5)² underflows it.
+    for (edge, radiance) in [("1e15", "1e9"), ("1e-5", "1e-38")] {
+        let light = format!(
+            "[[light]]\ntype = \"quad\"\ncorner = [0, 1.9, 0]\nedge1 = [{edge}, 0, 0]\n\
+             edge2 = [0, 0, {edge}]\nradiance = [{radiance}, {radiance}, {radiance}]\n"
+        );
+        let s = scene_with(d.path(), &format!("{CAMERA}{light}"), &[]);
+        let scene = aleph::scene::Scene::load(&s).unwrap();
+        assert_eq!(scene.lights.len(), 2, "edge {edge}");
+    }
+}
+
+#[test]
+fn a_small_scale_is_invertible() {
+    let d = tempdir();
+    let toml =
+        format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\ntransform = {{ scale = 0.0001 }}\n");
+    let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", MTL)]);
+    aleph::scene::Scene::load(&s).unwrap();
+    let toml =
+        format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\ntransform = {{ scale = 0.0 }}\n");
+    let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", MTL)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["[[mesh]] #1 transform", "invertible"]);
+}
+
+fn exr_with_white(path: &Path, rgb: f32, white: f32) {
+    use exr::prelude::*;
+    let mut attrs = LayerAttributes::default();
+    attrs.white_luminance = Some(white);
+    let layer = Layer::new(
+        (4, 4),
+        attrs,
+        Encoding::UNCOMPRESSED,
+        SpecificChannels::rgb(|_pos: Vec2<usize>| (rgb, rgb, rgb)),
+    );
+    Image::from_layer(layer).write().to_file(path).unwrap();
+}
+
+#[test]
+fn tonemap_and_diff_name_the_file_and_the_bad_value() {
+    let d = tempdir();
+    let black = d.path().join("black.exr");
+    exr_with_white(&black, 0.0, 100.0);
+    let out = d.path().join("o.png");
+    let e = aleph_fails(&["tonemap".as_ref(), black.as_os_str(), out.as_os_str()]);
+    assert_mentions(&e, &["black.exr", "black"]);
+    let nan = d.path().join("nan.exr");
+    exr_with_white(&nan, 0.5, f32::NAN);
+    let e = aleph_fails(&["tonemap".as_ref(), nan.as_os_str(), out.as_os_str()]);
+    assert_mentions(&e, &["nan.exr", "whiteLuminance"]);
+    assert!(!e.contains("--luminance-scale"), "{e}");
+    assert!(!out.exists());
+    let good = d.path().join("good.exr");
+    exr_with_white(&good, 0.5, 100.0);
+    let map = d.path().join("m.exr");
+    let e = aleph_fails(&[
+        "diff".as_ref(),
+        good.as_os_str(),
+        good.as_os_str(),
+        "--map".as_ref(),
+        map.as_os_str(),
+    ]);
+    assert_mentions(&e, &["m.exr", ".png"]);
+    assert!(!map.exists());
+}

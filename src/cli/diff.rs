@@ -1,11 +1,11 @@
 //! `aleph diff REF TEST`: does a viewer see a difference? Exit 0 = no, 1 = yes, 2 = error.
 
-use aleph::imageio::{Encoding, RgbImage, read_image};
+use aleph::imageio::{RgbImage, read_image};
 use aleph::output::{AtomicOutputs, encode_srgb8, write_png};
 use anyhow::{Context, bail};
 use clap::Args;
 use perception::metric::{DEFAULT_FAIL_PIXELS, DiffMetric};
-use perception::photometry::{SRGB_WHITE_CD_M2, luminance_image};
+use perception::photometry::luminance_image;
 use perception::threshold::ThresholdParams;
 use perception::viewing::ViewingConditions;
 use std::path::PathBuf;
@@ -42,18 +42,29 @@ pub struct DiffArgs {
     json: bool,
 }
 
-fn luminance_cd_m2(img: &RgbImage, scale: Option<f32>) -> anyhow::Result<(Vec<f32>, f32)> {
-    let k = match img.encoding {
-        Encoding::DisplaySrgb => SRGB_WHITE_CD_M2,
-        Encoding::Linear => scale.or(img.white_luminance).unwrap_or(SRGB_WHITE_CD_M2),
-    };
-    if !(k.is_finite() && k > 0.0) {
-        bail!("--luminance-scale must be a positive number, got {k}");
-    }
+fn luminance_cd_m2(
+    img: &RgbImage,
+    path: &std::path::Path,
+    scale: Option<f32>,
+) -> anyhow::Result<(Vec<f32>, f32)> {
+    let k = img.luminance_scale(path, scale)?;
     Ok((luminance_image(&img.rgb, k), k))
 }
 
 pub fn run(args: DiffArgs) -> anyhow::Result<ExitCode> {
+    if let Some(m) = &args.map {
+        let png = m
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        if !png {
+            bail!(
+                "{}: --map writes a PNG: give a name ending in .png",
+                m.display()
+            );
+        }
+        aleph::output::check_output_location(m)?;
+    }
     let r = read_image(&args.reference)?;
     let t = read_image(&args.test)?;
     if (r.width, r.height) != (t.width, t.height) {
@@ -80,8 +91,8 @@ pub fn run(args: DiffArgs) -> anyhow::Result<ExitCode> {
         (None, fov) => ViewingConditions::from_fov(fov.unwrap_or(DEFAULT_FOV_DEG), r.width as f64)
             .context("--fov")?,
     };
-    let (lr, kr) = luminance_cd_m2(&r, args.luminance_scale)?;
-    let (lt, _) = luminance_cd_m2(&t, args.luminance_scale)?;
+    let (lr, kr) = luminance_cd_m2(&r, &args.reference, args.luminance_scale)?;
+    let (lt, _) = luminance_cd_m2(&t, &args.test, args.luminance_scale)?;
     let metric = DiffMetric::new(
         r.width,
         r.height,

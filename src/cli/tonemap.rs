@@ -1,12 +1,11 @@
 //! `aleph tonemap IN OUT`: tone reproduction of an HDR image.
 
 use aleph::display::{ToneMapSettings, contact_sheet, tone_map};
-use aleph::imageio::{Encoding, read_image};
+use aleph::imageio::read_image;
 use aleph::output::{AtomicOutputs, encode_srgb8, write_exr, write_png};
 use anyhow::bail;
 use clap::{Args, ValueEnum};
 use perception::adaptation::AdaptationMode;
-use perception::photometry::SRGB_WHITE_CD_M2;
 use perception::tmo::{Display, Operator};
 use perception::viewing::ViewingConditions;
 use std::path::PathBuf;
@@ -132,15 +131,12 @@ pub fn run(args: TonemapArgs) -> anyhow::Result<ExitCode> {
         bail!("nothing to write: give OUT (.png or .exr) or --contact-sheet OUT.png");
     }
     let img = read_image(&args.input)?;
-    let k = match img.encoding {
-        Encoding::DisplaySrgb => SRGB_WHITE_CD_M2,
-        Encoding::Linear => args
-            .luminance_scale
-            .or(img.white_luminance)
-            .unwrap_or(SRGB_WHITE_CD_M2),
-    };
-    if !(k.is_finite() && k > 0.0) {
-        bail!("--luminance-scale must be a positive number, got {k}");
+    let k = img.luminance_scale(&args.input, args.luminance_scale)?;
+    if img.is_black() {
+        return Err(aleph::imageio::ImageError::AllBlack {
+            path: args.input.clone(),
+        }
+        .into());
     }
     let op: Operator = args.operator.into();
     let settings = args.tone.settings(op, img.width, k)?;

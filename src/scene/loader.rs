@@ -450,6 +450,7 @@ impl SceneDescription {
         if b.tris.is_empty() {
             return Err(self.invalid("the scene has no geometry: add a [[mesh]] or a [[light]]"));
         }
+        self.check_emission(&b, &settings)?;
         let lights = Lights::build(&mut b.tris, &b.materials, &b.textures).ok_or_else(|| {
             SceneError::NoLights {
                 path: self.path.clone(),
@@ -481,6 +482,30 @@ impl SceneDescription {
             scene.set_frame(a.frame_start)?;
         }
         Ok(scene)
+    }
+
+    /// Emitted radiance times the luminance scale must stay well inside f32 (an emitter of
+    /// 3e38 overflowed only later, as "pixel (13, 4) is not finite" in the perception model).
+    fn check_emission(&self, b: &Builder, settings: &RenderSettings) -> SceneResult<()> {
+        let k = settings.luminance_scale as f64;
+        if k > MAX_LUMINANCE_CD_M2 {
+            return Err(self.invalid(format!(
+                "render.luminance_scale = {k:e} cd/m² per unit exceeds {MAX_LUMINANCE_CD_M2:e}, \
+                 where f32 image arithmetic overflows"
+            )));
+        }
+        for m in &b.materials {
+            let Some(e) = &m.emission else { continue };
+            let peak = e.max(&b.textures).max_element() as f64;
+            if !peak.is_finite() || peak * k > MAX_LUMINANCE_CD_M2 {
+                return Err(self.invalid(format!(
+                    "material {:?}: emission {peak:e} W·sr⁻¹·m⁻² × luminance_scale {k} is beyond \
+                     {MAX_LUMINANCE_CD_M2:e} cd/m², where f32 image arithmetic overflows",
+                    m.name
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// Every moving mesh stays within ±[`MAX_COORDINATE`] at its keys.
@@ -749,8 +774,11 @@ impl SceneDescription {
                 * Quat::from_rotation_x(r[0].to_radians());
             Mat4::from_scale_rotation_translation(s, q, Vec3::from(t.translate.unwrap_or([0.0; 3])))
         };
-        if !m.is_finite() || m.determinant().abs() < 1e-12 {
-            return Err(self.invalid(format!("{key}: must be finite and invertible")));
+        if !m.is_finite() || m.determinant() == 0.0 || !m.inverse().is_finite() {
+            return Err(self.invalid(format!(
+                "{key}: must be finite and invertible (a zero or non-finite scale, or a singular \
+                 matrix)"
+            )));
         }
         Ok(m)
     }
@@ -1269,6 +1297,10 @@ fn check_memory(w: u32, h: u32) -> Result<(), String> {
         _ => Ok(()),
     }
 }
+
+/// Largest luminance (emitted radiance × `luminance_scale`) accepted, cd/m²: the sun's disc is
+/// 1.6e9; this leaves room for sums and squares of samples in f32 and f64 buffers.
+pub const MAX_LUMINANCE_CD_M2: f64 = 1e20;
 
 /// Largest coordinate magnitude accepted anywhere in a scene, world units. Beyond it f32
 /// arithmetic in the BVH build overflows (obvhs panicked at ±3e38 and on 1e30-sized lights);
