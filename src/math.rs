@@ -68,6 +68,37 @@ pub fn luminance(rgb: Vec3) -> f32 {
     perception::photometry::luminance(rgb.x, rgb.y, rgb.z)
 }
 
+/// |v| that does not overflow: glam's `length` squares the components, which is infinite in f32
+/// beyond about 1.8e19 (a triangle's cross product at scene scales of 1e10). Bit-identical to
+/// `length` whenever that is finite.
+#[inline]
+pub fn robust_length(v: Vec3) -> f32 {
+    let l = v.length();
+    if l.is_finite() {
+        return l;
+    }
+    let m = v.abs().max_element();
+    if !m.is_finite() || m == 0.0 {
+        return l;
+    }
+    (v / m).length() * m
+}
+
+/// v / |v| (zero for a zero or non-finite vector) that does not overflow; bit-identical to
+/// `normalize_or_zero` whenever that is non-zero.
+#[inline]
+pub fn robust_normalize(v: Vec3) -> Vec3 {
+    let n = v.normalize_or_zero();
+    if n != Vec3::ZERO {
+        return n;
+    }
+    let m = v.abs().max_element();
+    if !m.is_finite() || m == 0.0 {
+        return Vec3::ZERO;
+    }
+    (v / m).normalize_or_zero()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -100,35 +131,4 @@ mod tests {
         // Total internal reflection leaving glass at a grazing angle.
         assert!(refract(Vec3::new(0.9, 0.0, 0.4359).normalize(), n, 1.0 / 1.5).is_none());
     }
-}
-
-/// |v| that does not overflow: glam's `length` squares the components, which is infinite in f32
-/// beyond about 1.8e19 (a triangle's cross product at scene scales of 1e10). Bit-identical to
-/// `length` whenever that is finite.
-#[inline]
-pub fn robust_length(v: Vec3) -> f32 {
-    let l = v.length();
-    if l.is_finite() {
-        return l;
-    }
-    let m = v.abs().max_element();
-    if !m.is_finite() || m == 0.0 {
-        return l;
-    }
-    (v / m).length() * m
-}
-
-/// v / |v| (zero for a zero or non-finite vector) that does not overflow; bit-identical to
-/// `normalize_or_zero` whenever that is non-zero.
-#[inline]
-pub fn robust_normalize(v: Vec3) -> Vec3 {
-    let n = v.normalize_or_zero();
-    if n != Vec3::ZERO {
-        return n;
-    }
-    let m = v.abs().max_element();
-    if !m.is_finite() || m == 0.0 {
-        return Vec3::ZERO;
-    }
-    (v / m).normalize_or_zero()
 }

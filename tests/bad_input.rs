@@ -374,8 +374,10 @@ fn a_small_scale_is_invertible() {
 
 fn exr_with_white(path: &Path, rgb: f32, white: f32) {
     use exr::prelude::*;
-    let mut attrs = LayerAttributes::default();
-    attrs.white_luminance = Some(white);
+    let attrs = LayerAttributes {
+        white_luminance: Some(white),
+        ..Default::default()
+    };
     let layer = Layer::new(
         (4, 4),
         attrs,
