@@ -197,8 +197,22 @@ pub fn read_image(path: &Path) -> Result<RgbImage, ImageError> {
     Ok(img)
 }
 
+/// Largest image aleph reads, pixels: 2^28 (16384 × 16384), about 3 GiB as f32 RGB. A header
+/// claiming more (a corrupt or hostile file) is refused before anything is allocated; the exr
+/// crate would otherwise try to allocate it and abort the process.
+pub const MAX_IMAGE_PIXELS: usize = 1 << 28;
+
 fn read_exr(path: &Path) -> Result<RgbImage, String> {
     use exr::prelude::*;
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| e.to_string())?;
+    for h in &meta.headers {
+        let (w, hh) = (h.layer_size.width(), h.layer_size.height());
+        if w.checked_mul(hh).is_none_or(|n| n > MAX_IMAGE_PIXELS) {
+            return Err(format!(
+                "the header says {w}×{hh} pixels, more than aleph reads ({MAX_IMAGE_PIXELS})"
+            ));
+        }
+    }
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

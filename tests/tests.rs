@@ -9,6 +9,7 @@ mod bad_input;
 mod determinism;
 mod diff;
 mod furnace;
+mod fuzz;
 mod reference;
 mod scenes;
 mod strategies;

@@ -370,7 +370,20 @@ impl SceneDescription {
                 only: mesh.objects.as_deref(),
                 exclude: &mesh.exclude_objects,
             };
-            b.load_obj(&base.join(&mesh.file), xf, instance, &select)?;
+            let obj = base.join(&mesh.file);
+            if !obj.is_file() {
+                return Err(self.invalid(format!(
+                    "[[mesh]] #{}: cannot read {}: {}",
+                    i + 1,
+                    obj.display(),
+                    if obj.exists() {
+                        "not a file"
+                    } else {
+                        "file not found"
+                    }
+                )));
+            }
+            b.load_obj(&obj, xf, instance, &select)?;
             if let Some(track) = track
                 && b.tris.len() > before
             {
@@ -1155,7 +1168,11 @@ impl Builder {
         })
         .map_err(|e| obj_err(format!("{e}")))?;
         if let Some((p, message)) = mtl_failure.into_inner() {
-            return Err(SceneError::Mtl { path: p, message });
+            let obj = path.file_name().map(|n| n.to_string_lossy().to_string());
+            return Err(SceneError::Mtl {
+                path: p,
+                message: format!("{message} (named by {})", obj.unwrap_or_default()),
+            });
         }
         let mtl_path = mtl_paths
             .into_inner()
