@@ -1,4 +1,5 @@
-//! Errors from loading scenes and writing images.
+//! Errors from loading scenes (writing outputs: [`crate::output::OutputError`]; reading
+//! images: [`crate::imageio::ImageError`]).
 
 use std::path::PathBuf;
 

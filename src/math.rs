@@ -68,6 +68,30 @@ pub fn luminance(rgb: Vec3) -> f32 {
     perception::photometry::luminance(rgb.x, rgb.y, rgb.z)
 }
 
+/// Mean over the (2r+1) × (2r+1) window around each pixel of a row-major `w × h` image, with
+/// edges clamped (the border pixels repeat). The one box filter of the renderer: 3×3 for the
+/// adaptive sampler's error estimate, 5×5 for FLIP's p99 pooling.
+pub fn box_mean(v: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
+    use rayon::prelude::*;
+    let r = r as i64;
+    let norm = ((2 * r + 1) * (2 * r + 1)) as f32;
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w) as i64, (i / w) as i64);
+            let mut s = 0.0;
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    let xx = (x + dx).clamp(0, w as i64 - 1) as usize;
+                    let yy = (y + dy).clamp(0, h as i64 - 1) as usize;
+                    s += v[yy * w + xx];
+                }
+            }
+            s / norm
+        })
+        .collect()
+}
+
 /// |v| that does not overflow: glam's `length` squares the components, which is infinite in f32
 /// beyond about 1.8e19 (a triangle's cross product at scene scales of 1e10). Bit-identical to
 /// `length` whenever that is finite.

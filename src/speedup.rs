@@ -1,4 +1,4 @@
-//! Equal-quality benchmarking of the samplers against a high-spp reference (aleph DESIGN §11).
+//! Equal-quality benchmarking of the samplers against a high-spp reference
 //!
 //! Every image is judged against the reference on the *displayed* images (one tone curve,
 //! frozen from the reference, for all of them) by three measures:
@@ -12,8 +12,8 @@
 //!
 //! Speedups are read at equal score: for a target score, the samples (and wall time) each
 //! sampler needed are interpolated log–log between the budgets of the sweep, and
-//! speedup = uniform / perceptual (DESIGN §11: FLIP falls only as about spp^−0.4, so score
-//! differences must never be quoted as savings).
+//! speedup = uniform / perceptual (FLIP falls only as about spp^−0.4, so score differences
+//! must never be quoted as savings).
 
 use crate::display::FrozenToneMap;
 use crate::film::Film;
@@ -46,25 +46,6 @@ pub struct Judge {
     metric: DiffMetric,
     map: perception::threshold::ThresholdMap,
     ppd: f32,
-}
-
-/// 5×5 box filter with clamped edges.
-fn box5(v: &[f32], w: usize, h: usize) -> Vec<f32> {
-    let mut out = vec![0f32; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            let mut s = 0.0;
-            for dy in -2i64..=2 {
-                for dx in -2i64..=2 {
-                    let xx = (x as i64 + dx).clamp(0, w as i64 - 1) as usize;
-                    let yy = (y as i64 + dy).clamp(0, h as i64 - 1) as usize;
-                    s += v[yy * w + xx];
-                }
-            }
-            out[y * w + x] = s / 25.0;
-        }
-    }
-    out
 }
 
 /// The `p`-quantile (0–1) by sorting.
@@ -141,7 +122,7 @@ impl Judge {
     pub fn score_with_map(&self, rgb: &[f32]) -> perception::Result<(Scores, Vec<f32>)> {
         let fmap = self.flip_map(rgb)?;
         let flip_mean = fmap.iter().map(|&v| v as f64).sum::<f64>() / fmap.len() as f64;
-        let filtered = box5(&fmap, self.width, self.height);
+        let filtered = crate::math::box_mean(&fmap, self.width, self.height, 2);
         let flip_p99 = quantile(&filtered, 0.99);
         let lum = self.frozen.display_luminance(rgb)?;
         let diff = self
@@ -185,7 +166,7 @@ impl Judge {
 }
 
 /// The best any allocation could do, from per-pixel fits of FLIP error to uniform renders
-/// (aleph DESIGN §11): with each pixel's 5×5-filtered FLIP error modelled as a_i n^−β (β from
+///: with each pixel's 5×5-filtered FLIP error modelled as a_i n^−β (β from
 /// the image means of two uniform budgets, a_i from both maps), the ceiling speedups at budget
 /// `n` are, for FLIP mean, n over the budget at which the mean-optimal allocation
 /// n_i ∝ a_i^(1/(1+β)) matches uniform's mean; and for FLIP p99, n over the mean of

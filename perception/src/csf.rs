@@ -113,7 +113,7 @@ pub struct DalyCsfParams {
 }
 
 impl Default for DalyCsfParams {
-    /// A 10° × 10° foveal image at 0.5 m (the values of aleph's DESIGN §5 anchors).
+    /// A 10° × 10° foveal image at 0.5 m (the values of aleph's `docs/DESIGN.md` §5 anchors).
     fn default() -> Self {
         DalyCsfParams {
             image_area_deg2: 100.0,
@@ -201,7 +201,7 @@ mod tests {
 
     #[test]
     fn kelly_daly_anchor_table() {
-        // aleph DESIGN §5 [calc]: v_R, ρ_peak, S_peak, S(1), S(4), S(10).
+        // aleph's `docs/DESIGN.md` §5 [calc]: v_R, ρ_peak, S_peak, S(1), S(4), S(10).
         let table = [
             (0.15, 4.84, 245.4, 51.3, 237.3, 124.0),
             (1.0, 2.95, 250.6, 108.2, 226.0, 24.1),
@@ -260,7 +260,7 @@ mod tests {
 
     #[test]
     fn daly93_peaks_fall_and_shift_with_luminance() {
-        // aleph DESIGN §5 [calc] (d = 0.5 m, e = 0, θ = 0, i² = 100 deg²).
+        // aleph's `docs/DESIGN.md` §5 [calc] (d = 0.5 m, e = 0, θ = 0, i² = 100 deg²).
         let p = DalyCsfParams::default();
         for (l, s_peak, rho_peak) in [
             (100.0, 236.9, 3.19),

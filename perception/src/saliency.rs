@@ -25,7 +25,7 @@
 //! # Aleph map (Yee et al. 2001, §4.3)
 //! Salient regions are watched and get a lower error tolerance: ΔL_A(x) = ΔL_T(x) / (1 + ω S(x)),
 //! with a user weight ω ≥ 0 (ω = 0 leaves the map unchanged). Yee et al. modulate the elevation
-//! factor by saliency; dividing the whole threshold is the form aleph DESIGN §6 suggests and is
+//! factor by saliency; dividing the whole threshold is the form aleph's `docs/DESIGN.md` §6 suggests and is
 //! documented here as our choice.
 
 use crate::error::{PerceptionError, Result, check_image};

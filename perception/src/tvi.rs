@@ -70,7 +70,7 @@ mod tests {
 
     #[test]
     fn ward97_anchor_values() {
-        // aleph DESIGN §4 [calc], computed from the published piecewise formula.
+        // aleph's `docs/DESIGN.md` §4 [calc], computed from the published piecewise formula.
         let anchors = [
             (1000.0, 55.59),
             (100.0, 5.559),

@@ -5,7 +5,7 @@
 //!   Comput. Graph. Interact. Tech. 3(2), §4: pixels per degree of a monitor of width w (m),
 //!   resolution r (px) seen from distance d (m): ppd = d · (r / w) · π/180; the default
 //!   0.7 m, 3840 px, 0.7 m gives 67.02 ppd.
-//! - `aleph` DESIGN §3 for a field of view filled by the image:
+//! - aleph's `docs/DESIGN.md` §3 for a field of view filled by the image:
 //!   ppd = (W/2) / tan(FOV/2) · π/180 (pixels per degree at the image centre).
 
 use crate::error::{PerceptionError, Result};
@@ -128,7 +128,7 @@ mod tests {
     fn pixels_per_degree_match_published_values() {
         // FLIP paper §4: 0.7 m, 3840 px, 0.7 m → 67.02 ppd.
         assert!((ViewingConditions::default().ppd - 67.02).abs() < 0.01);
-        // DESIGN §3 [calc]: 45°, 1024 px → 21.57; 60°, 1920 px → 29.02.
+        // `docs/DESIGN.md` §3 [calc]: 45°, 1024 px → 21.57; 60°, 1920 px → 29.02.
         assert!((ViewingConditions::from_fov(45.0, 1024.0).unwrap().ppd - 21.57).abs() < 0.01);
         assert!((ViewingConditions::from_fov(60.0, 1920.0).unwrap().ppd - 29.02).abs() < 0.01);
         assert!(ViewingConditions::from_fov(0.0, 100.0).is_err());

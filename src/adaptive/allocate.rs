@@ -3,25 +3,6 @@
 use crate::film::Film;
 use rayon::prelude::*;
 
-/// 3×3 box mean with clamped edges (row-major `w × h`).
-pub(crate) fn box3(v: &[f32], w: usize, h: usize) -> Vec<f32> {
-    (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = ((i % w) as i64, (i / w) as i64);
-            let mut s = 0.0;
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let xx = (x + dx).clamp(0, w as i64 - 1) as usize;
-                    let yy = (y + dy).clamp(0, h as i64 - 1) as usize;
-                    s += v[yy * w + xx];
-                }
-            }
-            s / 9.0
-        })
-        .collect()
-}
-
 /// 3×3 dilation of a mask (row-major `w × h`).
 pub(crate) fn dilate3(m: &[bool], w: usize, h: usize) -> Vec<bool> {
     (0..w * h)

@@ -5,7 +5,6 @@
 //! with the velocity map when the frame moves, and L_a every pass from the current image. The
 //! variance criterion is Cycles'.
 
-use super::allocate::box3;
 use super::{AdaptiveSettings, ErrorEstimate, Visibility};
 use crate::display::FrozenToneMap;
 use crate::film::Film;
@@ -224,7 +223,7 @@ impl PerceptualCriterion {
         };
         let st = self.state.as_ref().expect("set above");
         let e = Self::error(film, s, &mean, &lf, frozen.as_ref(), scale)?;
-        let error = box3(&e, w, h);
+        let error = crate::math::box_mean(&e, w, h, 1);
         let adapt = adaptation_luminance(
             &lf,
             w,

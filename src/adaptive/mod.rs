@@ -8,7 +8,7 @@
 //!   2010), the production baseline;
 //! - uniform ([`SamplerKind::Uniform`]): the same budget spread evenly.
 //!
-//! # The loop (aleph DESIGN §8)
+//! # The loop
 //! 1. A uniform pass of `min_spp` samples.
 //! 2. Each pass: the current image and its two half-buffers (even and odd samples) are mapped to
 //!    the luminance in which visibility is judged; the error estimate is e = |Y(A) − Y(B)| / 2,

@@ -5,8 +5,7 @@
 //!
 //! Unlike pdiff, which masks with the larger band contrast of the two images, the threshold map
 //! here — adaptation and masking — is computed from the **reference alone**: otherwise the noise
-//! of a noisy test render masks itself and a grainy image passes as equal to its reference
-//! (aleph DESIGN §7). There is no colour test; only luminance differences are judged.
+//! of a noisy test render masks itself and a grainy image passes as equal to its reference. There is no colour test; only luminance differences are judged.
 
 use crate::error::{PerceptionError, Result, check_image};
 use crate::threshold::{ThresholdMap, ThresholdMapper, ThresholdParams};

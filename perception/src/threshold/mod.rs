@@ -6,7 +6,7 @@
 //! ([`tvi_ward97`](crate::tvi::tvi_ward97)) at the local adaptation luminance L_a, and F ≥ 1 the
 //! elevation by spatial frequency, retinal velocity and visual masking.
 //!
-//! # Procedure (an implementation of aleph DESIGN §6)
+//! # Procedure (an implementation of aleph's `docs/DESIGN.md` §6)
 //! 1. L_a: adaptation luminance ([`crate::adaptation`]), by default the Gaussian mean over 1°.
 //! 2. One forward real FFT of the mirror-padded luminance. Octave bands k = 0..K−1 centred on
 //!    ρ_k = ppd / 2^(k+1) cpd (f_k = 2^−(k+1) cycles/pixel) are cut by raised-cosine windows
@@ -20,11 +20,11 @@
 //!    the local RMS over a box of one period (radius 2^k px) scaled so a sinusoid of amplitude
 //!    A gives A: a steady contrast rather than zeros at the crossings.
 //! 4. Sensitivity per band and pixel: S_k = S_Daly93(ρ_k, L_a) · S_KD(ρ_k, v_R) / S_KD(ρ_k, v_drift)
-//!    (Daly 1993 for the luminance dependence, Kelly–Daly for velocity as DESIGN §5 suggests;
+//!    (Daly 1993 for the luminance dependence, Kelly–Daly for velocity as `docs/DESIGN.md` §5 suggests;
 //!    static pixels reduce to Daly 1993). v_R from the velocity map through Daly's eye-movement
 //!    model. Frequency elevation E_k = S_max(L_a)/S_k, masking elevation M_k = T_e(c_k S_k).
 //! 5. Combination: F = (1 + Σ_k w_k E_k M_k) / (1 + Σ_k w_k) with w_k = c_k S_k, the band
-//!    contrast in threshold units, clamped to [1, `max_elevation`]. *Deviation from DESIGN §6,
+//!    contrast in threshold units, clamped to [1, `max_elevation`]. *Deviation from `docs/DESIGN.md` §6,
 //!    which weights by c_k alone:* with c_k weights F is a ratio of vanishing quantities in flat
 //!    regions and jumps to the high-frequency elevation for contrasts far below visibility;
 //!    weighting by visibility, with one unit for the flat field, makes invisible content leave
@@ -643,7 +643,8 @@ fn bilinear(img: &[f32], w: usize, h: usize, x: f32, y: f32) -> f32 {
     a * (1.0 - fy) + b * fy
 }
 
-/// Bilinear interpolation of four interleaved channels.
+/// Bilinear interpolation of `NSUM` interleaved channels (the per-band sums of
+/// [`ThresholdMapper::compute`]), clamped to the image.
 #[inline(always)]
 fn bilinear_n(img: &[[f32; NSUM]], w: usize, h: usize, x: f32, y: f32) -> [f32; NSUM] {
     let x = x.clamp(0.0, (w - 1) as f32);

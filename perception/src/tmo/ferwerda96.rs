@@ -6,12 +6,12 @@
 //! and
 //! - m_p = t_p(L_da) / t_p(L_wa): photopic world thresholds onto the display's;
 //! - m_s = t_p(L_da) / t_s(L_wa): scotopic world thresholds onto the display's *photopic*
-//!   thresholds, since the display is seen with cones. (aleph DESIGN §9 writes
+//!   thresholds, since the display is seen with cones. (A literal reading gives
 //!   t_s(L_da)/t_s(L_wa); at a 25 cd/m² display the rods are saturated, so their threshold there
 //!   has no meaning for the viewer; we follow the paper's reasoning.)
 //! - k(L_wa) is the mesopic blend, 1 at and below log10 L_wa = −2.5 falling linearly in
-//!   log10 L_wa to 0 at 0.8 (aleph DESIGN §9's choice; Ferwerda et al. only say k goes from 1
-//!   to 0 across the mesopic range).
+//!   log10 L_wa to 0 at 0.8, the photopic limit (our choice; Ferwerda et al. only say k goes
+//!   from 1 to 0 across the mesopic range).
 //!
 //! t_p, t_s are Ferwerda's photopic and scotopic TVIs ([`crate::tvi`]). The rod term is
 //! achromatic (rods do not see colour). Display values are L_d / L_dmax, clipped to [0, 1].

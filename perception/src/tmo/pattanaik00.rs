@@ -22,7 +22,7 @@
 //! Notes on the listing: it computes a white/black `scale` between scene and display reference
 //! responses but never applies it (`R_lum_display = R_lum_scene`); we follow the listing, as the
 //! issue asks for agreement with it. The listing's pfstools counterpart writes σ_rod with a
-//! closed form that differs by 10× inside j; we follow the seed (aleph DESIGN §9).
+//! closed form that differs by 10× inside j; we follow the seed paper's listing.
 
 use crate::photometry::{SCOTOPIC_EQUAL_ENERGY_RATIO, luminance, rgb_to_xyz, scotopic_luminance};
 use rayon::prelude::*;
@@ -230,7 +230,7 @@ pub const ROD_PIGMENT_C: f64 = 16.0;
 /// - Pigment obeys dB/dt = (1 − B)/τ − G B / c (regeneration minus bleaching), whose steady state
 ///   B = c/(c + G τ) is the static bleaching factor. It is integrated exactly over each step,
 ///   B(t + Δt) = B∞ + (B − B∞) exp(−Δt (1/τ + G/c)), rather than by the explicit Euler step of
-///   aleph DESIGN §9, which is unstable for rods in bright light (G Δt / c ≫ 1).
+///   a literal transcription, which is unstable for rods in bright light (G Δt / c ≫ 1).
 ///
 /// G is the frame's log-average luminance (cones: photopic, rods: normalised scotopic).
 #[derive(Clone, Copy, Debug, PartialEq)]

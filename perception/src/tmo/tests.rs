@@ -78,7 +78,7 @@ fn ptyg_agrees_with_the_listing() {
     check([50.0, 100.0, 25.0], 80.0, [0.235055, 0.339568, 0.162721]);
     check([0.5, 0.4, 0.3], 0.3, [0.083095, 0.080010, 0.076228]);
     check([300.0, 200.0, 100.0], 50.0, [1.496521, 1.011278, 0.517609]);
-    // aleph DESIGN §9 anchors.
+    // σ anchors computed by hand from Pattanaik et al. 2000's σ_cone formula.
     assert!((pattanaik00::sigma_cone(1.0) - 75.35).abs() < 0.01);
     assert!((pattanaik00::sigma_cone(100.0) - 1628.1).abs() < 0.1);
     assert!((pattanaik00::bleaching(1.0, 1.0).1 - 0.038462).abs() < 1e-6);
