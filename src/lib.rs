@@ -21,6 +21,7 @@ pub mod animation;
 pub mod bsdf;
 pub mod camera;
 pub mod chi2;
+pub mod deliver;
 pub mod display;
 pub mod error;
 pub mod film;

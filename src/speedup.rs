@@ -16,7 +16,6 @@
 //! must never be quoted as savings).
 
 use crate::display::FrozenToneMap;
-use crate::film::Film;
 use crate::output::encode_srgb8;
 use perception::metric::DiffMetric;
 use perception::threshold::ThresholdParams;
@@ -150,23 +149,19 @@ impl Judge {
     /// # Errors
     /// From the perception models.
     pub fn floor(
-        film: &Film,
-        frozen: &FrozenToneMap,
+        even: &[f32],
+        odd: &[f32],
+        width: usize,
+        height: usize,
+        frozen: FrozenToneMap,
         view: ViewingConditions,
     ) -> perception::Result<Scores> {
-        let j = Judge::new(
-            film.mean_rgb_even(),
-            film.width as usize,
-            film.height as usize,
-            frozen.clone(),
-            view,
-        )?;
-        j.score(&film.mean_rgb_odd())
+        Judge::new(even.to_vec(), width, height, frozen, view)?.score(odd)
     }
 }
 
-/// The best any allocation could do, from per-pixel fits of FLIP error to uniform renders
-///: with each pixel's 5×5-filtered FLIP error modelled as a_i n^−β (β from
+/// The best any allocation could do, from per-pixel fits of FLIP error to uniform renders:
+/// with each pixel's 5×5-filtered FLIP error modelled as a_i n^−β (β from
 /// the image means of two uniform budgets, a_i from both maps), the ceiling speedups at budget
 /// `n` are, for FLIP mean, n over the budget at which the mean-optimal allocation
 /// n_i ∝ a_i^(1/(1+β)) matches uniform's mean; and for FLIP p99, n over the mean of

@@ -86,6 +86,17 @@ impl ViewingConditions {
         })
     }
 
+    /// The same conditions for another pixel density (a viewer nearer or farther, another
+    /// display).
+    ///
+    /// # Errors
+    /// [`PerceptionError::Parameter`] if `ppd` is not positive and finite.
+    pub fn with_ppd(mut self, ppd: f64) -> Result<Self> {
+        positive("pixels per degree", ppd)?;
+        self.ppd = ppd;
+        Ok(self)
+    }
+
     /// The same conditions at another frame rate.
     ///
     /// # Errors

@@ -191,6 +191,81 @@ impl Default for AdaptiveSettings {
     }
 }
 
+/// Errors of an adaptive render.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum AdaptiveError {
+    /// A setting is out of its range; the message names the setting, its value and the range.
+    #[error("{0}")]
+    Settings(String),
+    /// The perception model rejected an image or the tone settings.
+    #[error(transparent)]
+    Perception(#[from] perception::PerceptionError),
+}
+
+impl AdaptiveSettings {
+    /// Checks every setting against its range (the loop never clamps silently).
+    ///
+    /// # Errors
+    /// [`AdaptiveError::Settings`] naming the first bad setting (with the command-line flag
+    /// that sets it).
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        let bad = |m: String| Err(AdaptiveError::Settings(m));
+        if self.min_spp < 2 {
+            return bad(format!(
+                "min_spp (--min-spp) must be at least 2 (the error estimate needs both \
+                 half-buffers), got {}",
+                self.min_spp
+            ));
+        }
+        if self.max_spp < self.min_spp {
+            return bad(format!(
+                "max_spp (--max-spp, {}) must be at least min_spp (--min-spp, {})",
+                self.max_spp, self.min_spp
+            ));
+        }
+        if let Some(b) = self.budget_spp
+            && !(b.is_finite() && b >= 1.0)
+        {
+            return bad(format!("budget_spp (--spp) must be at least 1, got {b}"));
+        }
+        if self.uniform_spp == 0 {
+            return bad("uniform_spp (render.spp) must be at least 1".into());
+        }
+        if !(self.converged_fraction > 0.0 && self.converged_fraction <= 1.0) {
+            return bad(format!(
+                "converged_fraction (--converged) must be in (0, 1], got {}",
+                self.converged_fraction
+            ));
+        }
+        if !(self.variance_threshold.is_finite() && self.variance_threshold > 0.0) {
+            return bad(format!(
+                "variance_threshold (--noise-threshold) must be positive, got {}",
+                self.variance_threshold
+            ));
+        }
+        if !(self.saliency_weight.is_finite() && self.saliency_weight >= 0.0) {
+            return bad(format!(
+                "saliency_weight (--saliency) must be ≥ 0, got {}",
+                self.saliency_weight
+            ));
+        }
+        let w = self.threshold.adaptation_window_deg;
+        if !(w.is_finite() && w > 0.0) {
+            return bad(format!(
+                "adaptation window (--adaptation-window) must be positive, got {w} degrees"
+            ));
+        }
+        if self.guide_spp == 0 {
+            return bad("guide_spp (--guide-spp) must be at least 1".into());
+        }
+        if self.time_budget.is_some_and(|t| t.is_zero()) {
+            return bad("time_budget (--time) must be positive".into());
+        }
+        Ok(())
+    }
+}
+
 /// What one pass did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PassReport {
@@ -272,14 +347,16 @@ impl LoopState {
 /// Renders `scene` adaptively. `progress` is called after every pass.
 ///
 /// # Errors
-/// [`perception::PerceptionError`] if the perception model rejects the images (it should not
-/// for a valid render) or the tone settings are invalid.
+/// [`AdaptiveError::Settings`] for a setting out of range ([`AdaptiveSettings::validate`]);
+/// [`AdaptiveError::Perception`] if the perception model rejects the images (it should not for
+/// a valid render) or the tone settings are invalid.
 pub fn render_adaptive(
     scene: &Scene,
     s: &AdaptiveSettings,
     progress: &(dyn Fn(&PassReport) + Sync),
     sample_progress: &(dyn Fn(u64) + Sync),
-) -> perception::Result<AdaptiveResult> {
+) -> Result<AdaptiveResult, AdaptiveError> {
+    s.validate()?;
     let start = Instant::now();
     let integrator = Integrator {
         max_depth: scene.settings.max_depth,
@@ -300,11 +377,11 @@ pub fn render_adaptive(
     }
     let n_px = st.film.len();
     let budget_total = s.budget_spp.map(|b| (b * n_px as f64).round() as u64);
+    // A budget below min_spp makes the first pass the whole render (as uniform).
     let min_spp = match budget_total {
         Some(b) => s.min_spp.min((b / n_px as u64).max(1) as u32),
         None => s.min_spp,
-    }
-    .clamp(1, s.max_spp);
+    };
     let first = vec![min_spp; n_px];
     st.stats += render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
     let mut criterion = match s.sampler {

@@ -5,11 +5,8 @@ use super::{parse_resolution, with_threads};
 use aleph::adaptive::{
     AdaptiveResult, AdaptiveSettings, ErrorEstimate, SamplerKind, Visibility, render_adaptive,
 };
-use aleph::display::{ToneMapSettings, tone_map};
-use aleph::output::{
-    AtomicOutputs, ChannelData, auto_exposure_ev, encode_srgb8, expose, false_colour, write_exr,
-    write_png,
-};
+use aleph::deliver::{Look, write_render};
+use aleph::display::ToneMapSettings;
 use aleph::scene::{Scene, SceneDescription};
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
@@ -165,25 +162,6 @@ impl SamplingArgs {
         uniform_spp: u32,
         tone: ToneMapSettings,
     ) -> anyhow::Result<AdaptiveSettings> {
-        if self.min_spp < 2 {
-            bail!("--min-spp must be at least 2 (the error estimate needs both half-buffers)");
-        }
-        if self.max_spp < self.min_spp {
-            bail!(
-                "--max-spp ({}) must be at least --min-spp ({})",
-                self.max_spp,
-                self.min_spp
-            );
-        }
-        if !(self.converged > 0.0 && self.converged <= 1.0) {
-            bail!("--converged must be in (0, 1], got {}", self.converged);
-        }
-        if !(self.noise_threshold.is_finite() && self.noise_threshold > 0.0) {
-            bail!(
-                "--noise-threshold must be positive, got {}",
-                self.noise_threshold
-            );
-        }
         let time_budget = match self.time {
             Some(t) if t.is_finite() && t > 0.0 => Some(Duration::from_secs_f64(t)),
             Some(t) => bail!("--time must be a positive number of seconds, got {t}"),
@@ -191,25 +169,13 @@ impl SamplingArgs {
         };
         let mut tone = tone;
         if let Some(ppd) = self.ppd {
-            if !(ppd.is_finite() && ppd > 0.0) {
-                bail!("--ppd must be positive, got {ppd}");
-            }
-            tone.view.ppd = ppd;
-        }
-        if !(self.adaptation_window.is_finite() && self.adaptation_window > 0.0) {
-            bail!(
-                "--adaptation-window must be positive, got {}",
-                self.adaptation_window
-            );
+            tone.view = tone.view.with_ppd(ppd).context("--ppd")?;
         }
         let threshold = perception::threshold::ThresholdParams {
             adaptation_window_deg: self.adaptation_window,
             ..Default::default()
         };
-        if !(self.saliency.is_finite() && self.saliency >= 0.0) {
-            bail!("--saliency must be ≥ 0, got {}", self.saliency);
-        }
-        Ok(AdaptiveSettings {
+        let settings = AdaptiveSettings {
             sampler,
             threshold,
             saliency_weight: self.saliency,
@@ -231,7 +197,9 @@ impl SamplingArgs {
             tone,
             variance_threshold: self.noise_threshold,
             guide_spp: self.guide_spp,
-        })
+        };
+        settings.validate()?;
+        Ok(settings)
     }
 }
 
@@ -325,12 +293,7 @@ fn output_stem(args: &RenderArgs, scene: &Path) -> PathBuf {
     PathBuf::from(name)
 }
 
-pub fn with_ext(stem: &Path, ext: &str) -> PathBuf {
-    let mut s = stem.as_os_str().to_owned();
-    s.push(".");
-    s.push(ext);
-    PathBuf::from(s)
-}
+pub use aleph::deliver::with_ext;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let scene_path = args.scene.clone().unwrap_or_else(default_scene);
@@ -423,7 +386,7 @@ fn render_and_write(
         Some(_) => Look::Tone(settings.tone),
         None => Look::Exposure(args.exposure),
     };
-    let written = write_outputs(&scene, stem, args, &settings, &result, look)?;
+    let written = write_render(&scene, stem, &settings, &result, look, args.aov)?;
     println!(
         "{}",
         summary_line(&scene, &settings, &result, stem, &written.look)
@@ -494,107 +457,4 @@ pub(super) fn summary_line(
         with_ext(stem, "exr").display(),
         with_ext(stem, "png").display(),
     )
-}
-
-/// How the PNG is made from the linear image.
-pub(super) enum Look {
-    /// A tone operator (with its adaptation state, in a sequence).
-    Tone(ToneMapSettings),
-    /// Exposure in stops, or automatic (log average to 0.18).
-    Exposure(Option<f32>),
-}
-
-/// What [`write_outputs`] wrote.
-pub(super) struct Written {
-    /// The display image (8-bit sRGB).
-    pub display: Vec<u8>,
-    /// Words for the summary: the exposure or the operator.
-    pub look: String,
-}
-
-/// Extra EXR channels (name, samples) and header attributes (name, text).
-type ExrLayers = (Vec<(String, ChannelData)>, Vec<(String, String)>);
-
-/// EXR attributes and extra channels of a render.
-fn exr_layers(scene: &Scene, settings: &AdaptiveSettings, result: &AdaptiveResult) -> ExrLayers {
-    let mut attributes = vec![
-        (
-            "radianceUnits".to_string(),
-            "W.sr^-1.m^-2 (linear Rec.709 RGB)".to_string(),
-        ),
-        ("sppUnits".to_string(), "samples per pixel".to_string()),
-        ("scene".to_string(), scene.path.display().to_string()),
-        ("sampler".to_string(), settings.sampler.name().to_string()),
-    ];
-    let mut extra = vec![("spp".to_string(), ChannelData::U32(result.film.spp()))];
-    if let (Some(t), Some(e)) = (&result.threshold, &result.error) {
-        extra.push(("Threshold.Y".to_string(), ChannelData::F32(t.clone())));
-        extra.push(("Error.Y".to_string(), ChannelData::F32(e.clone())));
-        attributes.push(("thresholdUnits".to_string(), result.units.to_string()));
-        attributes.push(("errorUnits".to_string(), result.units.to_string()));
-    }
-    if let (Some(v), Some(a)) = (&result.velocity, scene.animation) {
-        for (c, name) in ["X", "Y", "Z", "W"].iter().enumerate() {
-            extra.push((format!("Vector.{name}"), ChannelData::F32(v.channel(c))));
-        }
-        attributes.push((
-            "vectorUnits".to_string(),
-            "pixels per frame, y up (Blender's Vector pass): X,Y = p(t-1) - p(t), \
-             Z,W = p(t) - p(t+1)"
-                .to_string(),
-        ));
-        attributes.push(("alephFrame".to_string(), scene.frame.index.to_string()));
-        attributes.push(("alephFps".to_string(), a.fps.to_string()));
-        attributes.push(("alephShutter".to_string(), a.shutter.to_string()));
-    }
-    (extra, attributes)
-}
-
-pub(super) fn write_outputs(
-    scene: &Scene,
-    stem: &Path,
-    args: &RenderArgs,
-    settings: &AdaptiveSettings,
-    result: &AdaptiveResult,
-    look: Look,
-) -> anyhow::Result<Written> {
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    let film = &result.film;
-    let rgb = film.mean_rgb();
-    let exr_path = with_ext(stem, "exr");
-    let png_path = with_ext(stem, "png");
-    let mut out = AtomicOutputs::new();
-    let (extra, attributes) = exr_layers(scene, settings, result);
-    out.stage(&exr_path, |wr| {
-        write_exr(wr, &exr_path, w, h, &rgb, &extra, &attributes)
-    })?;
-    let (display, look) = match look {
-        Look::Tone(tone) => (
-            encode_srgb8(&tone_map(&rgb, w as usize, h as usize, &tone)?),
-            format!("tone operator {}", tone.operator.name()),
-        ),
-        Look::Exposure(ev) => {
-            let ev = ev.unwrap_or_else(|| auto_exposure_ev(&rgb));
-            (encode_srgb8(&expose(&rgb, ev)), format!("{ev:+.2} EV"))
-        }
-    };
-    out.stage(&png_path, |wr| write_png(wr, &png_path, w, h, &display))?;
-    if args.aov {
-        let spp: Vec<f32> = film.spp().iter().map(|&n| n as f32).collect();
-        let (lo, hi) = (
-            spp.iter().cloned().fold(f32::INFINITY, f32::min).max(1.0),
-            spp.iter().cloned().fold(0.0, f32::max).max(2.0),
-        );
-        let density = false_colour(&spp, lo, hi.max(lo * 2.0));
-        let spp_path = with_ext(stem, "spp.png");
-        out.stage(&spp_path, |wr| write_png(wr, &spp_path, w, h, &density))?;
-        if let (Some(t), Some(e)) = (&result.threshold, &result.error) {
-            let ratio: Vec<f32> = e.iter().zip(t).map(|(e, t)| e / t.max(1e-30)).collect();
-            let img = false_colour(&ratio, 1.0 / 16.0, 16.0);
-            let ratio_path = with_ext(stem, "ratio.png");
-            out.stage(&ratio_path, |wr| write_png(wr, &ratio_path, w, h, &img))?;
-        }
-    }
-    out.commit().context("writing outputs")?;
-    Ok(Written { display, look })
 }

@@ -1,9 +1,8 @@
 //! `aleph render` of an animated scene: frames one after another, numbered outputs, the
 //! viewer's adaptation carried across frames, an animated preview and a filmstrip.
 
-use super::render::{
-    Look, RenderArgs, render_with_progress, summary_line, with_ext, write_outputs,
-};
+use super::render::{RenderArgs, render_with_progress, summary_line};
+use aleph::deliver::{Look, with_ext, write_render};
 use aleph::display::filmstrip;
 use aleph::output::{AtomicOutputs, write_apng, write_png};
 use aleph::scene::Scene;
@@ -93,7 +92,7 @@ pub fn render_sequence(
             None => Look::Tone(settings.tone),
         };
         let fstem = numbered(stem, f);
-        let written = write_outputs(scene, &fstem, args, &settings, &result, look)?;
+        let written = write_render(scene, &fstem, &settings, &result, look, args.aov)?;
         let line = summary_line(scene, &settings, &result, &fstem, &written.look);
         multi.suspend(|| println!("{line}"));
         samples += result.film.total_samples();

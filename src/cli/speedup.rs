@@ -369,17 +369,15 @@ fn sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Resu
         )?;
         let mut tone = args.tone.settings(op, w, scene.settings.luminance_scale)?;
         tone.adaptation_state = course.as_ref().zip(frame).map(|(c, f)| c.state_at(f));
+        // The viewer of the judges is the sampler's (one --ppd rule).
+        view = args
+            .sampling
+            .settings(Arm::Uniform.sampler(), None, 1, tone)?
+            .tone
+            .view;
         let frozen = FrozenToneMap::new(&reference.mean, w, h, &tone)?;
-        view = match args.sampling.ppd {
-            Some(p) => perception::viewing::ViewingConditions {
-                ppd: p,
-                ..tone.view
-            },
-            None => tone.view,
-        };
         let judge = Judge::new(reference.mean.clone(), w, h, frozen.clone(), view)?;
-        let floor =
-            Judge::new(reference.even.clone(), w, h, frozen, view)?.score(&reference.odd)?;
+        let floor = Judge::floor(&reference.even, &reference.odd, w, h, frozen, view)?;
         floor_acc.add(&Row {
             sampler: Arm::Uniform,
             budget: 0.0,

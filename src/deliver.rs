@@ -1,0 +1,150 @@
+//! Delivering a render: the files a user gets from one frame, written all or nothing.
+//!
+//! - `STEM.exr`: linear radiance (W·sr⁻¹·m⁻², Rec.709 RGB, f32) with layers `spp` (samples per
+//!   pixel), `Threshold.Y` and `Error.Y` (the sampler's last threshold and error, units in the
+//!   header), and for a sequence frame Blender's Vector pass (`Vector.X/Y/Z/W`, see
+//!   [`crate::velocity`]) with the frame number, fps and shutter in the header;
+//! - `STEM.png`: the display image (8-bit sRGB) through a [`Look`];
+//! - with `aov`: `STEM.spp.png` (samples per pixel) and `STEM.ratio.png` (error / threshold,
+//!   1/16 to 16), false colour on log scales.
+//!
+//! Every file is staged as a temporary file and renamed into place only when all were written
+//! ([`crate::output::AtomicOutputs`]).
+
+use crate::adaptive::{AdaptiveResult, AdaptiveSettings};
+use crate::display::{ToneMapSettings, tone_map};
+use crate::output::{
+    AtomicOutputs, ChannelData, OutputError, auto_exposure_ev, encode_srgb8, expose, false_colour,
+    write_exr, write_png,
+};
+use crate::scene::Scene;
+use std::path::{Path, PathBuf};
+
+/// `STEM.EXT` (the extension appended, never replacing a dot in the stem).
+pub fn with_ext(stem: &Path, ext: &str) -> PathBuf {
+    let mut s = stem.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
+/// Errors delivering a render.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DeliverError {
+    /// A file could not be written (it names the file).
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// The tone operator rejected the image.
+    #[error(transparent)]
+    Perception(#[from] perception::PerceptionError),
+}
+
+/// How the PNG is made from the linear image.
+#[derive(Clone, Copy, Debug)]
+pub enum Look {
+    /// A tone operator (with its adaptation state, in a sequence).
+    Tone(ToneMapSettings),
+    /// Exposure in stops, or automatic (log average to 0.18).
+    Exposure(Option<f32>),
+}
+
+/// What [`write_render`] wrote.
+pub struct Written {
+    /// The display image (8-bit sRGB).
+    pub display: Vec<u8>,
+    /// Words for the summary: the exposure or the operator.
+    pub look: String,
+}
+
+/// Extra EXR channels (name, samples) and header attributes (name, text).
+type ExrLayers = (Vec<(String, ChannelData)>, Vec<(String, String)>);
+
+/// EXR attributes and extra channels of a render.
+fn exr_layers(scene: &Scene, settings: &AdaptiveSettings, result: &AdaptiveResult) -> ExrLayers {
+    let mut attributes = vec![
+        (
+            "radianceUnits".to_string(),
+            "W.sr^-1.m^-2 (linear Rec.709 RGB)".to_string(),
+        ),
+        ("sppUnits".to_string(), "samples per pixel".to_string()),
+        ("scene".to_string(), scene.path.display().to_string()),
+        ("sampler".to_string(), settings.sampler.name().to_string()),
+    ];
+    let mut extra = vec![("spp".to_string(), ChannelData::U32(result.film.spp()))];
+    if let (Some(t), Some(e)) = (&result.threshold, &result.error) {
+        extra.push(("Threshold.Y".to_string(), ChannelData::F32(t.clone())));
+        extra.push(("Error.Y".to_string(), ChannelData::F32(e.clone())));
+        attributes.push(("thresholdUnits".to_string(), result.units.to_string()));
+        attributes.push(("errorUnits".to_string(), result.units.to_string()));
+    }
+    if let (Some(v), Some(a)) = (&result.velocity, scene.animation) {
+        for (c, name) in ["X", "Y", "Z", "W"].iter().enumerate() {
+            extra.push((format!("Vector.{name}"), ChannelData::F32(v.channel(c))));
+        }
+        attributes.push((
+            "vectorUnits".to_string(),
+            "pixels per frame, y up (Blender's Vector pass): X,Y = p(t-1) - p(t), \
+             Z,W = p(t) - p(t+1)"
+                .to_string(),
+        ));
+        attributes.push(("alephFrame".to_string(), scene.frame.index.to_string()));
+        attributes.push(("alephFps".to_string(), a.fps.to_string()));
+        attributes.push(("alephShutter".to_string(), a.shutter.to_string()));
+    }
+    (extra, attributes)
+}
+
+/// Writes the outputs of `result` (a render of `scene`'s current frame with `settings`) to
+/// `stem` + extensions (see the module docs); `aov` adds the false-colour PNGs.
+///
+/// # Errors
+/// [`DeliverError`]; nothing is replaced then.
+pub fn write_render(
+    scene: &Scene,
+    stem: &Path,
+    settings: &AdaptiveSettings,
+    result: &AdaptiveResult,
+    look: Look,
+    aov: bool,
+) -> Result<Written, DeliverError> {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let film = &result.film;
+    let rgb = film.mean_rgb();
+    let exr_path = with_ext(stem, "exr");
+    let png_path = with_ext(stem, "png");
+    let mut out = AtomicOutputs::new();
+    let (extra, attributes) = exr_layers(scene, settings, result);
+    out.stage(&exr_path, |wr| {
+        write_exr(wr, &exr_path, w, h, &rgb, &extra, &attributes)
+    })?;
+    let (display, look) = match look {
+        Look::Tone(tone) => (
+            encode_srgb8(&tone_map(&rgb, w as usize, h as usize, &tone)?),
+            format!("tone operator {}", tone.operator.name()),
+        ),
+        Look::Exposure(ev) => {
+            let ev = ev.unwrap_or_else(|| auto_exposure_ev(&rgb));
+            (encode_srgb8(&expose(&rgb, ev)), format!("{ev:+.2} EV"))
+        }
+    };
+    out.stage(&png_path, |wr| write_png(wr, &png_path, w, h, &display))?;
+    if aov {
+        let spp: Vec<f32> = film.spp().iter().map(|&n| n as f32).collect();
+        let (lo, hi) = (
+            spp.iter().cloned().fold(f32::INFINITY, f32::min).max(1.0),
+            spp.iter().cloned().fold(0.0, f32::max).max(2.0),
+        );
+        let density = false_colour(&spp, lo, hi.max(lo * 2.0));
+        let spp_path = with_ext(stem, "spp.png");
+        out.stage(&spp_path, |wr| write_png(wr, &spp_path, w, h, &density))?;
+        if let (Some(t), Some(e)) = (&result.threshold, &result.error) {
+            let ratio: Vec<f32> = e.iter().zip(t).map(|(e, t)| e / t.max(1e-30)).collect();
+            let img = false_colour(&ratio, 1.0 / 16.0, 16.0);
+            let ratio_path = with_ext(stem, "ratio.png");
+            out.stage(&ratio_path, |wr| write_png(wr, &ratio_path, w, h, &img))?;
+        }
+    }
+    out.commit()?;
+    Ok(Written { display, look })
+}
