@@ -197,13 +197,36 @@ pub fn read_image(path: &Path) -> Result<RgbImage, ImageError> {
     Ok(img)
 }
 
-/// Largest image aleph reads, pixels: 2^28 (16384 × 16384), about 3 GiB as f32 RGB. A header
-/// claiming more (a corrupt or hostile file) is refused before anything is allocated; the exr
-/// crate would otherwise try to allocate it and abort the process.
-pub const MAX_IMAGE_PIXELS: usize = 1 << 28;
+/// Every channel of the first layer of an EXR file, by name (`R`, `Even.G`, `spp`, …), as f32
+/// planes in row-major order: for aleph's own multi-layer files (cached references, partial
+/// films) that [`read_image`]'s RGB view does not cover.
+///
+/// # Errors
+/// [`ImageError::Read`] naming the file (missing, malformed, or larger than
+/// [`MAX_IMAGE_PIXELS`]).
+pub fn read_exr_channels(
+    path: &Path,
+) -> Result<std::collections::HashMap<String, Vec<f32>>, ImageError> {
+    let err = |message: String| ImageError::Read {
+        path: path.to_path_buf(),
+        message,
+    };
+    check_exr_size(path).map_err(err)?;
+    let img = exr::prelude::read_all_flat_layers_from_file(path).map_err(|e| err(e.to_string()))?;
+    let layer = img
+        .layer_data
+        .first()
+        .ok_or_else(|| err("no layer".into()))?;
+    Ok(layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect())
+}
 
-fn read_exr(path: &Path) -> Result<RgbImage, String> {
-    use exr::prelude::*;
+/// Refuses a header whose layers claim more than [`MAX_IMAGE_PIXELS`].
+fn check_exr_size(path: &Path) -> Result<(), String> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| e.to_string())?;
     for h in &meta.headers {
         let (w, hh) = (h.layer_size.width(), h.layer_size.height());
@@ -213,6 +236,17 @@ fn read_exr(path: &Path) -> Result<RgbImage, String> {
             ));
         }
     }
+    Ok(())
+}
+
+/// Largest image aleph reads, pixels: 2^28 (16384 × 16384), about 3 GiB as f32 RGB. A header
+/// claiming more (a corrupt or hostile file) is refused before anything is allocated; the exr
+/// crate would otherwise try to allocate it and abort the process.
+pub const MAX_IMAGE_PIXELS: usize = 1 << 28;
+
+fn read_exr(path: &Path) -> Result<RgbImage, String> {
+    use exr::prelude::*;
+    check_exr_size(path)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

@@ -15,6 +15,12 @@
 //! speedup = uniform / perceptual (FLIP falls only as about spp^−0.4, so score differences
 //! must never be quoted as savings).
 
+mod sweep;
+
+pub use sweep::{
+    Arm, Row, SpeedupError, Sweep, SweepSpec, frame_list, image_path, reference_key, sweep,
+};
+
 use crate::display::FrozenToneMap;
 use crate::output::encode_srgb8;
 use perception::metric::DiffMetric;

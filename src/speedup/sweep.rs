@@ -1,0 +1,580 @@
+//! The equal-quality sweep: cached references, every sampler at every budget, per frame.
+
+use super::{Ceiling, Judge, Scores, ceiling};
+use crate::adaptive::{AdaptiveSettings, SamplerKind, render_adaptive};
+use crate::display::FrozenToneMap;
+use crate::film::Film;
+use crate::integrator::Strategy;
+use crate::output::{AtomicOutputs, ChannelData, OutputError, write_exr, write_png};
+use crate::render::render_uniform;
+use crate::scene::{Scene, SceneDescription};
+use crate::sequence::AdaptationCourse;
+use perception::tmo::Operator;
+use perception::viewing::ViewingConditions;
+use std::fmt::Write as _;
+use std::hash::Hasher;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// One arm of the comparison: a sampler, and for sequences the perceptual sampler without its
+/// velocity map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Arm {
+    /// Uniform sampling.
+    Uniform,
+    /// Cycles' noise threshold.
+    Variance,
+    /// The perceptual sampler.
+    Perceptual,
+    /// The perceptual sampler without the velocity map (sequences).
+    PerceptualNoVelocity,
+}
+
+impl Arm {
+    /// Every arm; the first three for a still.
+    pub const ALL: [Arm; 4] = [
+        Arm::Uniform,
+        Arm::Variance,
+        Arm::Perceptual,
+        Arm::PerceptualNoVelocity,
+    ];
+
+    /// Name in tables and file names.
+    pub fn name(self) -> &'static str {
+        match self {
+            Arm::Uniform => "uniform",
+            Arm::Variance => "variance",
+            Arm::Perceptual => "perceptual",
+            Arm::PerceptualNoVelocity => "perceptual-novelocity",
+        }
+    }
+
+    /// The sampler it runs.
+    pub fn sampler(self) -> SamplerKind {
+        match self {
+            Arm::Uniform => SamplerKind::Uniform,
+            Arm::Variance => SamplerKind::Variance,
+            Arm::Perceptual | Arm::PerceptualNoVelocity => SamplerKind::Perceptual,
+        }
+    }
+}
+
+/// One arm at one budget: for a sequence, spp and scores are means over its frames and times
+/// are sums.
+#[derive(Clone, Debug)]
+pub struct Row {
+    /// The arm.
+    pub sampler: Arm,
+    /// Average budget, spp.
+    pub budget: f64,
+    /// Samples per pixel used (mean over frames).
+    pub mean_spp: f64,
+    /// Samples per pixel of the albedo guide (mean over frames).
+    pub guide_spp: f64,
+    /// Wall time, s (sum over frames).
+    pub wall_s: f64,
+    /// Time in the perception model, s (sum over frames).
+    pub decision_s: f64,
+    /// Scores (means over frames).
+    pub scores: Scores,
+}
+
+/// The cache key of a reference: FNV-1a over the scene file, its meshes and the settings that
+/// change the reference (resolution, spp, seed, depth, frame, aleph's version).
+pub fn reference_key(desc: &SceneDescription, spp: u32, seed: u64, frame: Option<i64>) -> String {
+    struct Fnv(u64);
+    impl Hasher for Fnv {
+        fn finish(&self) -> u64 {
+            self.0
+        }
+        fn write(&mut self, bytes: &[u8]) {
+            for b in bytes {
+                self.0 = (self.0 ^ *b as u64).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+    }
+    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+    h.write(&std::fs::read(&desc.path).unwrap_or_default());
+    let base = desc.path.parent().unwrap_or(Path::new(""));
+    for m in &desc.meshes {
+        h.write(&std::fs::read(base.join(&m.file)).unwrap_or_default());
+    }
+    h.write(
+        format!(
+            "{:?}|{spp}|{seed}|{:?}|{frame:?}|{}",
+            desc.camera.resolution,
+            desc.render.max_depth,
+            env!("CARGO_PKG_VERSION")
+        )
+        .as_bytes(),
+    );
+    format!("{:016x}", h.finish())
+}
+
+fn planes(film: &Film) -> Vec<(String, ChannelData)> {
+    let mut v = Vec::new();
+    for (prefix, data) in [("Even", film.mean_rgb_even()), ("Odd", film.mean_rgb_odd())] {
+        for (c, name) in ["R", "G", "B"].iter().enumerate() {
+            let p: Vec<f32> = data.iter().skip(c).step_by(3).copied().collect();
+            v.push((format!("{prefix}.{name}"), ChannelData::F32(p)));
+        }
+    }
+    v.push(("spp".into(), ChannelData::U32(film.spp())));
+    v
+}
+
+/// The reference: mean, even half and odd half (interleaved RGB each).
+struct Reference {
+    mean: Vec<f32>,
+    even: Vec<f32>,
+    odd: Vec<f32>,
+}
+
+fn read_reference(path: &Path, n: usize) -> Option<Reference> {
+    let ch = crate::imageio::read_exr_channels(path).ok()?;
+    let get = |p: &str| -> Option<Vec<f32>> {
+        let (r, g, b) = (
+            ch.get(&format!("{p}R"))?,
+            ch.get(&format!("{p}G"))?,
+            ch.get(&format!("{p}B"))?,
+        );
+        if r.len() != n {
+            return None;
+        }
+        Some((0..n).flat_map(|i| [r[i], g[i], b[i]]).collect())
+    };
+    Some(Reference {
+        mean: get("")?,
+        even: get("Even.")?,
+        odd: get("Odd.")?,
+    })
+}
+/// The cached uniform reference of the scene's current frame, rendered when missing.
+fn reference_for(
+    ref_scene: &Scene,
+    path: &Path,
+    spp: u32,
+    log: &dyn Fn(&str),
+) -> Result<Reference, SpeedupError> {
+    let (w, h) = (
+        ref_scene.camera.width as usize,
+        ref_scene.camera.height as usize,
+    );
+    if let Some(r) = read_reference(path, w * h) {
+        log(&format!("using cached reference {}", path.display()));
+        return Ok(r);
+    }
+    log(&format!("rendering the reference: {w}×{h} at {spp} spp …"));
+    let t = Instant::now();
+    let (film, _) = render_uniform(ref_scene, Strategy::Mis, spp, &|_| {});
+    log(&format!(
+        "reference rendered in {:.1} s",
+        t.elapsed().as_secs_f64()
+    ));
+    let mean = film.mean_rgb();
+    let mut out = AtomicOutputs::new();
+    let attrs = vec![("referenceSpp".to_string(), spp.to_string())];
+    out.stage(path, |wr| {
+        write_exr(wr, path, w as u32, h as u32, &mean, &planes(&film), &attrs)
+    })?;
+    out.commit()?;
+    Ok(Reference {
+        mean,
+        even: film.mean_rgb_even(),
+        odd: film.mean_rgb_odd(),
+    })
+}
+
+/// Sums over frames of one arm at one budget.
+#[derive(Default)]
+struct Acc {
+    frames: usize,
+    mean_spp: f64,
+    guide_spp: f64,
+    wall_s: f64,
+    decision_s: f64,
+    flip_mean: f64,
+    flip_p99: f64,
+    visible: f64,
+    relmse: f64,
+}
+
+impl Acc {
+    fn add(&mut self, r: &Row) {
+        self.frames += 1;
+        self.mean_spp += r.mean_spp;
+        self.guide_spp += r.guide_spp;
+        self.wall_s += r.wall_s;
+        self.decision_s += r.decision_s;
+        self.flip_mean += r.scores.flip_mean;
+        self.flip_p99 += r.scores.flip_p99;
+        self.visible += r.scores.visible_fraction;
+        self.relmse += r.scores.relmse;
+    }
+
+    /// Means of spp and scores, sums of times.
+    fn row(&self, sampler: Arm, budget: f64) -> Row {
+        let k = 1.0 / self.frames.max(1) as f64;
+        Row {
+            sampler,
+            budget,
+            mean_spp: self.mean_spp * k,
+            guide_spp: self.guide_spp * k,
+            wall_s: self.wall_s,
+            decision_s: self.decision_s,
+            scores: Scores {
+                flip_mean: self.flip_mean * k,
+                flip_p99: self.flip_p99 * k,
+                visible_fraction: self.visible * k,
+                relmse: self.relmse * k,
+            },
+        }
+    }
+}
+
+/// Where the display image of one render goes: `DIR/ARM-Bspp.png` for a still,
+/// `DIR/frames/ARM-Bspp/NNNN.png` for a sequence frame (the layout `benches/cvvdp_judge.py`
+/// reads).
+pub fn image_path(dir: &Path, arm: &str, frame: Option<i64>) -> PathBuf {
+    match frame {
+        None => dir.join(format!("{arm}.png")),
+        Some(f) => dir.join("frames").join(arm).join(format!("{f:04}.png")),
+    }
+}
+
+/// The frames to judge: `None` once for a still; for an animated scene `range` or its whole
+/// frame range.
+///
+/// # Errors
+/// [`SpeedupError::Frames`] for a range on a still or outside the scene's frames.
+pub fn frame_list(
+    scene: &Scene,
+    range: Option<(i64, i64)>,
+) -> Result<Vec<Option<i64>>, SpeedupError> {
+    let bad = |m: String| {
+        Err(SpeedupError::Frames(format!(
+            "{}: {m}",
+            scene.path.display()
+        )))
+    };
+    match (scene.animation, range) {
+        (None, None) => Ok(vec![None]),
+        (None, Some(_)) => {
+            bad("frames need an animated scene (this one has no [animation] table)".into())
+        }
+        (Some(a), range) => {
+            let (first, last) = range.unwrap_or((a.frame_start, a.frame_end));
+            for f in [first, last] {
+                if !a.contains(f) {
+                    return bad(format!(
+                        "frame {f} is outside the scene's frame range {}-{}",
+                        a.frame_start, a.frame_end
+                    ));
+                }
+            }
+            Ok((first..=last).map(Some).collect())
+        }
+    }
+}
+
+/// What to sweep.
+#[derive(Clone, Debug)]
+pub struct SweepSpec {
+    /// Average budgets, spp.
+    pub budgets: Vec<f64>,
+    /// Samples per pixel of the uniform reference.
+    pub reference_spp: u32,
+    /// Seed of the test renders (the reference uses an independent one).
+    pub seed: u64,
+    /// Frames of an animated scene (`None`: its whole range).
+    pub frames: Option<(i64, i64)>,
+    /// Tone operator of the judged display (`None`: exposure for a still, PTYG with the
+    /// carried adaptation state for a sequence).
+    pub operator: Option<Operator>,
+}
+
+/// The result of a sweep: one row per arm and budget (means over frames for a sequence).
+pub struct Sweep {
+    /// Rows, budget-major.
+    pub rows: Vec<Row>,
+    /// The reference's noise floor (mean over frames).
+    pub floor: Scores,
+    /// Ceilings of the first frame, per budget.
+    pub ceilings: Vec<(f64, Ceiling)>,
+    /// Per-frame rows as CSV (header included).
+    pub per_frame_csv: String,
+    /// Number of frames (0 for a still).
+    pub frames: usize,
+    /// The operator of the judged display.
+    pub operator: Operator,
+    /// The viewer's pixels per degree.
+    pub ppd: f64,
+    /// Image size.
+    pub width: usize,
+    /// Image size.
+    pub height: usize,
+}
+
+/// Errors of a sweep.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SpeedupError {
+    /// The scene failed to load or a frame is invalid.
+    #[error(transparent)]
+    Scene(#[from] crate::error::SceneError),
+    /// A frame range that does not fit the scene.
+    #[error("{0}")]
+    Frames(String),
+    /// A render failed or its settings were refused.
+    #[error(transparent)]
+    Adaptive(#[from] crate::adaptive::AdaptiveError),
+    /// A perception model failed.
+    #[error(transparent)]
+    Perception(#[from] perception::PerceptionError),
+    /// An output could not be written.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// A directory could not be created.
+    #[error("{}: cannot create directory", path.display())]
+    Dir {
+        /// The directory.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Seed offset of the reference's renders (independent of the test renders).
+const REFERENCE_SEED_XOR: u64 = 0x5851_F42D_4C95_7F2D;
+
+/// State carried across the frames of a sweep.
+struct SweepState {
+    acc: Vec<Acc>,
+    floor: Acc,
+    per_frame: String,
+    uniform_maps: Vec<(f64, Vec<f32>)>,
+    view: ViewingConditions,
+}
+
+/// Renders (and caches in `dir`) a uniform reference per frame, then every arm at every budget
+/// of `spec`, judges each against the reference on the displayed images, and writes their
+/// display PNGs into `dir` ([`image_path`]). `base` gives every sampler setting but the
+/// sampler, budget and display (its tone settings give the viewer and display model). `log`
+/// receives a line per render.
+///
+/// # Errors
+/// [`SpeedupError`].
+pub fn sweep(
+    desc: SceneDescription,
+    dir: &Path,
+    spec: &SweepSpec,
+    base: &AdaptiveSettings,
+    log: &dyn Fn(&str),
+) -> Result<Sweep, SpeedupError> {
+    std::fs::create_dir_all(dir).map_err(|source| SpeedupError::Dir {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut ref_desc = desc.clone();
+    ref_desc.render.seed = Some(spec.seed ^ REFERENCE_SEED_XOR);
+    let mut test_desc = desc.clone();
+    test_desc.render.seed = Some(spec.seed);
+    let mut scene = Scene::load_description(test_desc)?;
+    let mut ref_scene = Scene::load_description(ref_desc)?;
+    let frames = frame_list(&scene, spec.frames)?;
+    let course = match frames.last() {
+        Some(Some(last)) => AdaptationCourse::compute(&mut scene, *last)?,
+        _ => None,
+    };
+    let arms: &[Arm] = if course.is_some() {
+        &Arm::ALL
+    } else {
+        &Arm::ALL[..3]
+    };
+    let default_op = if course.is_some() {
+        Operator::Ptyg
+    } else {
+        Operator::Exposure
+    };
+    let operator = spec.operator.unwrap_or(default_op);
+    let mut st = SweepState {
+        acc: (0..arms.len() * spec.budgets.len())
+            .map(|_| Acc::default())
+            .collect(),
+        floor: Acc::default(),
+        per_frame: String::from(
+            "frame,sampler,budget_spp,mean_spp,wall_s,flip_mean,flip_p99,visible_fraction,relmse\n",
+        ),
+        uniform_maps: Vec::new(),
+        view: base.tone.view,
+    };
+    for (k, &frame) in frames.iter().enumerate() {
+        if let Some(f) = frame {
+            scene.set_frame(f)?;
+            ref_scene.set_frame(f)?;
+        }
+        let mut tone = base.tone;
+        tone.operator = operator;
+        tone.luminance_scale = scene.settings.luminance_scale;
+        tone.adaptation_state = course.as_ref().zip(frame).map(|(c, f)| c.state_at(f));
+        let key = reference_key(&desc, spec.reference_spp, spec.seed, frame);
+        let ref_path = dir.join(format!("reference-{key}.exr"));
+        let reference = reference_for(&ref_scene, &ref_path, spec.reference_spp, log)?;
+        let ctx = FrameCtx {
+            scene: &scene,
+            frame,
+            first: k == 0,
+            tone,
+            arms,
+            dir,
+        };
+        sweep_frame(&ctx, &reference, spec, base, &mut st, log)?;
+    }
+    let rows: Vec<Row> = spec
+        .budgets
+        .iter()
+        .enumerate()
+        .flat_map(|(bi, &b)| {
+            let acc = &st.acc;
+            arms.iter()
+                .enumerate()
+                .map(move |(ai, &arm)| acc[bi * arms.len() + ai].row(arm, b))
+        })
+        .collect();
+    // The ceiling (of the first frame), fitted between the second-lowest and the highest uniform
+    // budgets (the lowest is the noisiest fit), at each budget of the sweep.
+    let maps = &st.uniform_maps;
+    let ceilings: Vec<(f64, Ceiling)> = if maps.len() >= 3 {
+        let (lo, hi) = (&maps[1], &maps[maps.len() - 1]);
+        spec.budgets
+            .iter()
+            .filter_map(|&b| ceiling(lo.0, &lo.1, hi.0, &hi.1, b).map(|c| (b, c)))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    Ok(Sweep {
+        rows,
+        floor: st.floor.row(Arm::Uniform, 0.0).scores,
+        ceilings,
+        per_frame_csv: st.per_frame,
+        frames: frames.iter().flatten().count(),
+        operator,
+        ppd: st.view.ppd,
+        width: scene.camera.width as usize,
+        height: scene.camera.height as usize,
+    })
+}
+
+/// One frame's context in a sweep.
+struct FrameCtx<'a> {
+    scene: &'a Scene,
+    frame: Option<i64>,
+    first: bool,
+    tone: crate::display::ToneMapSettings,
+    arms: &'a [Arm],
+    dir: &'a Path,
+}
+
+/// Judges every arm at every budget on one frame, accumulating into `st`.
+fn sweep_frame(
+    ctx: &FrameCtx,
+    reference: &Reference,
+    spec: &SweepSpec,
+    base: &AdaptiveSettings,
+    st: &mut SweepState,
+    log: &dyn Fn(&str),
+) -> Result<(), SpeedupError> {
+    let (w, h) = (
+        ctx.scene.camera.width as usize,
+        ctx.scene.camera.height as usize,
+    );
+    let view = base.tone.view;
+    st.view = view;
+    let frozen = FrozenToneMap::new(&reference.mean, w, h, &ctx.tone)?;
+    let judge = Judge::new(reference.mean.clone(), w, h, frozen.clone(), view)?;
+    st.floor.add(&Row {
+        sampler: Arm::Uniform,
+        budget: 0.0,
+        mean_spp: 0.0,
+        guide_spp: 0.0,
+        wall_s: 0.0,
+        decision_s: 0.0,
+        scores: Judge::floor(&reference.even, &reference.odd, w, h, frozen, view)?,
+    });
+    let mut images = AtomicOutputs::new();
+    let stage_png = |images: &mut AtomicOutputs, name: &str, rgb: &[f32]| {
+        let p = image_path(ctx.dir, name, ctx.frame);
+        if let Some(parent) = p.parent() {
+            std::fs::create_dir_all(parent).map_err(|source| SpeedupError::Dir {
+                path: parent.to_path_buf(),
+                source,
+            })?;
+        }
+        let srgb = judge.display_srgb(rgb)?;
+        images.stage(&p, |wr| write_png(wr, &p, w as u32, h as u32, &srgb))?;
+        Ok::<(), SpeedupError>(())
+    };
+    stage_png(&mut images, "reference", &reference.mean)?;
+    for (bi, &budget) in spec.budgets.iter().enumerate() {
+        for (ai, &arm) in ctx.arms.iter().enumerate() {
+            let settings = AdaptiveSettings {
+                sampler: arm.sampler(),
+                budget_spp: Some(budget),
+                uniform_spp: budget as u32,
+                tone: ctx.tone,
+                use_velocity: arm != Arm::PerceptualNoVelocity,
+                ..base.clone()
+            };
+            let t = Instant::now();
+            let r = render_adaptive(ctx.scene, &settings, &|_| {}, &|_| {})?;
+            let wall = t.elapsed().as_secs_f64();
+            let rgb = r.film.mean_rgb();
+            let (scores, fmap) = judge.score_with_map(&rgb)?;
+            if arm == Arm::Uniform && ctx.first {
+                st.uniform_maps.push((budget, fmap));
+            }
+            let row = Row {
+                sampler: arm,
+                budget,
+                mean_spp: r.mean_spp(),
+                guide_spp: r
+                    .guide_stats
+                    .map(|g| g.samples as f64 / (w * h) as f64)
+                    .unwrap_or(0.0),
+                wall_s: wall,
+                decision_s: r.decision_time.as_secs_f64(),
+                scores,
+            };
+            let label = ctx.frame.map(|f| format!("frame {f} ")).unwrap_or_default();
+            log(&format!(
+                "{label}{:>21} {:>6} spp: {:7.2} spp used, {:7.2} s, FLIP {:.4} (p99 {:.4}), visible {:.4}, relMSE {:.5}",
+                arm.name(),
+                budget,
+                row.mean_spp,
+                wall,
+                scores.flip_mean,
+                scores.flip_p99,
+                scores.visible_fraction,
+                scores.relmse
+            ));
+            let _ = writeln!(
+                st.per_frame,
+                "{},{},{budget},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8}",
+                ctx.frame.unwrap_or(0),
+                arm.name(),
+                row.mean_spp,
+                wall,
+                scores.flip_mean,
+                scores.flip_p99,
+                scores.visible_fraction,
+                scores.relmse
+            );
+            stage_png(&mut images, &format!("{}-{}spp", arm.name(), budget), &rgb)?;
+            st.acc[bi * ctx.arms.len() + ai].add(&row);
+        }
+    }
+    images.commit()?;
+    Ok(())
+}
