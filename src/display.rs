@@ -258,62 +258,55 @@ pub fn contact_sheet(
     height: usize,
     s: &ToneMapSettings,
 ) -> perception::Result<(Vec<u8>, u32, u32)> {
-    register_font();
     let factor = width.div_ceil(480).max(1);
     let (small, tw, th) = downscale(rgb, width, height, factor);
     let (tw, th) = (tw.max(1), th.max(1));
-    let label_h = 28usize;
-    let cols = 3usize;
-    let rows = Operator::ALL.len().div_ceil(cols);
-    let (sw, sh) = (cols * tw, rows * (th + label_h));
-    let mut buf = vec![0u8; 3 * sw * sh];
-    let tiles: Vec<(Operator, Vec<u8>)> = Operator::ALL
+    let tiles: Vec<(String, Vec<u8>)> = Operator::ALL
         .iter()
         .map(|&op| {
             let d = tone_map(&small, tw, th, &ToneMapSettings { operator: op, ..*s })?;
-            Ok((op, crate::output::encode_srgb8(&d)))
+            Ok((op.label().to_string(), crate::output::encode_srgb8(&d)))
         })
         .collect::<perception::Result<_>>()?;
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (sw as u32, sh as u32)).into_drawing_area();
-        root.fill(&RGBColor(24, 24, 24)).ok();
-        for (i, (op, tile)) in tiles.into_iter().enumerate() {
-            let (cx, cy) = ((i % cols) * tw, (i / cols) * (th + label_h));
-            if let Some(el) = BitMapElement::<(i32, i32)>::with_owned_buffer(
-                (cx as i32, (cy + label_h) as i32),
-                (tw as u32, th as u32),
-                tile,
-            ) {
-                root.draw(&el).ok();
-            }
-            let style = TextStyle::from(("sans-serif", 17).into_font()).color(&WHITE);
-            root.draw_text(op.label(), &style, (cx as i32 + 8, cy as i32 + 5))
-                .ok();
-        }
-        root.present().ok();
-    }
-    Ok((buf, sw as u32, sh as u32))
+    Ok(labelled_grid(tiles, tw, th, 3, 17))
 }
 
 /// A filmstrip contact sheet of a sequence: the display images of `frames` (frame number and
 /// 8-bit sRGB of `width × height` each), shrunk to at most 192 pixels wide, 6 to a row, each
 /// labelled with its frame number. Returns 8-bit sRGB, width and height.
 pub fn filmstrip(frames: &[(i64, Vec<u8>)], width: usize, height: usize) -> (Vec<u8>, u32, u32) {
-    register_font();
     let factor = width.div_ceil(192).max(1);
     let (tw, th) = ((width / factor).max(1), (height / factor).max(1));
-    let label_h = 22usize;
-    let cols = frames.len().clamp(1, 6);
-    let rows = frames.len().div_ceil(cols).max(1);
+    let tiles: Vec<(String, Vec<u8>)> = frames
+        .iter()
+        .map(|(index, img)| {
+            let lin: Vec<f32> = img.iter().map(|&v| v as f32).collect();
+            let (small, _, _) = downscale(&lin, width, height, factor);
+            let tile = small.iter().map(|&v| v.round() as u8).collect();
+            (format!("frame {index}"), tile)
+        })
+        .collect();
+    labelled_grid(tiles, tw, th, frames.len().clamp(1, 6), 15)
+}
+
+/// Tiles of `tw × th` 8-bit sRGB, `cols` to a row on a dark ground, each under its label set
+/// in DejaVu Sans at `font_px`. Returns 8-bit sRGB, width and height.
+fn labelled_grid(
+    tiles: Vec<(String, Vec<u8>)>,
+    tw: usize,
+    th: usize,
+    cols: usize,
+    font_px: u32,
+) -> (Vec<u8>, u32, u32) {
+    register_font();
+    let label_h = font_px as usize + 11;
+    let rows = tiles.len().div_ceil(cols).max(1);
     let (sw, sh) = (cols * tw, rows * (th + label_h));
     let mut buf = vec![0u8; 3 * sw * sh];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (sw as u32, sh as u32)).into_drawing_area();
         root.fill(&RGBColor(24, 24, 24)).ok();
-        for (i, (index, img)) in frames.iter().enumerate() {
-            let lin: Vec<f32> = img.iter().map(|&v| v as f32).collect();
-            let (small, _, _) = downscale(&lin, width, height, factor);
-            let tile: Vec<u8> = small.iter().map(|&v| v.round() as u8).collect();
+        for (i, (label, tile)) in tiles.into_iter().enumerate() {
             let (cx, cy) = ((i % cols) * tw, (i / cols) * (th + label_h));
             if let Some(el) = BitMapElement::<(i32, i32)>::with_owned_buffer(
                 (cx as i32, (cy + label_h) as i32),
@@ -322,13 +315,9 @@ pub fn filmstrip(frames: &[(i64, Vec<u8>)], width: usize, height: usize) -> (Vec
             ) {
                 root.draw(&el).ok();
             }
-            let style = TextStyle::from(("sans-serif", 15).into_font()).color(&WHITE);
-            root.draw_text(
-                &format!("frame {index}"),
-                &style,
-                (cx as i32 + 6, cy as i32 + 3),
-            )
-            .ok();
+            let style = TextStyle::from(("sans-serif", font_px).into_font()).color(&WHITE);
+            root.draw_text(&label, &style, (cx as i32 + 7, cy as i32 + 4))
+                .ok();
         }
         root.present().ok();
     }
