@@ -20,7 +20,8 @@ pub mod adaptive;
 pub mod animation;
 pub mod bsdf;
 pub mod camera;
-pub mod chi2;
+#[cfg(test)]
+mod chi2;
 pub mod deliver;
 pub mod display;
 pub mod error;

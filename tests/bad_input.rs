@@ -414,3 +414,55 @@ fn tonemap_and_diff_name_the_file_and_the_bad_value() {
     assert_mentions(&e, &["m.exr", ".png"]);
     assert!(!map.exists());
 }
+
+#[test]
+fn speedup_on_a_bad_scene_leaves_no_directory() {
+    let d = tempdir();
+    let light = "[[light]]\ntype = \"quad\"\ncorner = [0, 1.9, 0]\nedge1 = [1e30, 0, 0]\n\
+                 edge2 = [0, 0, 1e30]\nradiance = [1, 1, 1]\n";
+    let s = scene_with(d.path(), &format!("{CAMERA}{light}"), &[]);
+    let out = d.path().join("sp");
+    let e = aleph_fails(&[
+        "speedup".as_ref(),
+        s.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert_mentions(&e, &["scene.toml", "[[light]] #1"]);
+    assert!(!out.exists(), "an empty output directory was left");
+}
+
+#[test]
+fn one_failed_output_writes_none_of_the_others() {
+    // render --aov: the ratio PNG's place is taken by a directory.
+    let d = tempdir();
+    let s = scene_with(d.path(), &format!("{CAMERA}{LIGHT}"), &[]);
+    std::fs::create_dir(d.path().join("out.ratio.png")).unwrap();
+    let e = aleph_fails(&[
+        "render".as_ref(),
+        s.as_os_str(),
+        "--spp".as_ref(),
+        "4".as_ref(),
+        "--aov".as_ref(),
+        "-o".as_ref(),
+        d.path().join("out").as_os_str(),
+    ]);
+    assert_mentions(&e, &["out.ratio.png"]);
+    for f in ["out.exr", "out.png", "out.spp.png"] {
+        assert!(!d.path().join(f).exists(), "{f} was written");
+    }
+    // tonemap: the contact sheet cannot be written, so the main output is not either.
+    let exr = d.path().join("in.exr");
+    exr_with_white(&exr, 0.5, 100.0);
+    let main = d.path().join("main.png");
+    let sheet = d.path().join("nodir/sheet.png");
+    let e = aleph_fails(&[
+        "tonemap".as_ref(),
+        exr.as_os_str(),
+        main.as_os_str(),
+        "--contact-sheet".as_ref(),
+        sheet.as_os_str(),
+    ]);
+    assert_mentions(&e, &["sheet.png"]);
+    assert!(!main.exists());
+}

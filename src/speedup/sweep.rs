@@ -372,10 +372,6 @@ pub fn sweep(
     base: &AdaptiveSettings,
     log: &dyn Fn(&str),
 ) -> Result<Sweep, SpeedupError> {
-    std::fs::create_dir_all(dir).map_err(|source| SpeedupError::Dir {
-        path: dir.to_path_buf(),
-        source,
-    })?;
     let mut ref_desc = desc.clone();
     ref_desc.render.seed = Some(spec.seed ^ REFERENCE_SEED_XOR);
     let mut test_desc = desc.clone();
@@ -383,6 +379,11 @@ pub fn sweep(
     let mut scene = Scene::load_description(test_desc)?;
     let mut ref_scene = Scene::load_description(ref_desc)?;
     let frames = frame_list(&scene, spec.frames)?;
+    // Only now that the scene loads: a failed run leaves no empty directory behind.
+    std::fs::create_dir_all(dir).map_err(|source| SpeedupError::Dir {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let course = match frames.last() {
         Some(Some(last)) => AdaptationCourse::compute(&mut scene, *last)?,
         _ => None,
