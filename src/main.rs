@@ -21,5 +21,20 @@ fn main() -> ExitCode {
         eprintln!("aleph: interrupted");
         std::process::exit(EXIT_INTERRUPTED);
     });
+    // A bug that slips past validation is reported in one line, not as a backtrace.
+    std::panic::set_hook(Box::new(|info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        let at = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        eprintln!("aleph: internal error{at}: {msg} (a bug: please report it with the input)");
+        aleph::output::remove_staged_temporaries();
+    }));
     cli::main()
 }
