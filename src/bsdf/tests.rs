@@ -53,7 +53,10 @@ fn sampling_matches_pdf_chi2() {
                 |uc, u| bsdf.sample(wo, uc, u).map(|s| s.wi),
                 |wi| bsdf.pdf(wo, wi),
             );
-            assert!(r.dof >= 10 && r.statistic.is_finite(), "{name} θo={th}: {r:?}");
+            assert!(
+                r.dof >= 10 && r.statistic.is_finite(),
+                "{name} θo={th}: {r:?}"
+            );
             assert!(r.p_value > alpha, "{name} θo={th}: {r:?}");
             // The pdf integrates to the probability that sampling succeeds.
             assert!(
