@@ -355,111 +355,10 @@ impl SceneDescription {
         }
         let animation = self.animation()?;
         let camera_track = self.camera_track(animation.as_ref())?;
-        let base = self.path.parent().unwrap_or(Path::new("")).to_path_buf();
         let mut b = Builder::default();
-        let mut tracks = Vec::new();
-        for (i, mesh) in self.meshes.iter().enumerate() {
-            let xf = self.transform(i, mesh.transform.as_ref())?;
-            let track = self.mesh_track(i, mesh, animation.as_ref())?;
-            let instance = match track {
-                Some(_) => tracks.len() as u32,
-                None => STATIC_INSTANCE,
-            };
-            let before = b.tris.len();
-            let select = ObjectFilter {
-                only: mesh.objects.as_deref(),
-                exclude: &mesh.exclude_objects,
-            };
-            let obj = base.join(&mesh.file);
-            if !obj.is_file() {
-                return Err(self.invalid(format!(
-                    "[[mesh]] #{}: cannot read {}: {}",
-                    i + 1,
-                    obj.display(),
-                    if obj.exists() {
-                        "not a file"
-                    } else {
-                        "file not found"
-                    }
-                )));
-            }
-            b.load_obj(&obj, xf, instance, &select)?;
-            if let Some(track) = track
-                && b.tris.len() > before
-            {
-                tracks.push(track);
-            }
-        }
-        for (name, ov) in &self.materials {
-            let Some(&idx) = b.material_index.get(name) else {
-                let mut known: Vec<&String> = b.material_index.keys().collect();
-                known.sort();
-                return Err(self.invalid(format!(
-                    "[materials.{name}]: no MTL material is named {name:?} (known: {known:?})"
-                )));
-            };
-            let m = &mut b.materials[idx as usize];
-            apply_override(m, ov)
-                .map_err(|msg| self.invalid(format!("[materials.{name}]: {msg}")))?;
-        }
-        for (i, l) in self.lights.iter().enumerate() {
-            match l {
-                LightDesc::Quad {
-                    corner,
-                    edge1,
-                    edge2,
-                    radiance,
-                } => {
-                    let vals = corner.iter().chain(edge1).chain(edge2).chain(radiance);
-                    if vals.clone().any(|v| !v.is_finite()) {
-                        return Err(
-                            self.invalid(format!("[[light]] #{}: values must be finite", i + 1))
-                        );
-                    }
-                    if radiance.iter().any(|&v| v < 0.0) {
-                        return Err(
-                            self.invalid(format!("[[light]] #{}: radiance must be ≥ 0", i + 1))
-                        );
-                    }
-                    let (c, e1, e2) = (Vec3::from(*corner), Vec3::from(*edge1), Vec3::from(*edge2));
-                    let far = [c, c + e1, c + e2, c + e1 + e2]
-                        .iter()
-                        .any(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE);
-                    if far {
-                        return Err(self.invalid(format!(
-                            "[[light]] #{}: corners beyond ±{MAX_COORDINATE:e}, where f32 \
-                             arithmetic overflows",
-                            i + 1
-                        )));
-                    }
-                    if e1.cross(e2).length() <= 0.0 {
-                        return Err(self.invalid(format!(
-                            "[[light]] #{}: edge1 and edge2 must span a non-zero area",
-                            i + 1
-                        )));
-                    }
-                    let mat = b.materials.len() as u32;
-                    b.materials.push(Material {
-                        name: format!("light#{}", i + 1),
-                        kind: MaterialKind::Diffuse,
-                        kd: ColorSource::Constant(Vec3::ZERO),
-                        ks: ColorSource::Constant(Vec3::ZERO),
-                        transmittance: Vec3::ONE,
-                        emission: Some(ColorSource::Constant(Vec3::from(*radiance))),
-                    });
-                    for p in [[c, c + e1, c + e1 + e2], [c, c + e1 + e2, c + e2]] {
-                        b.tris.push(TriangleAttributes {
-                            p,
-                            n: None,
-                            uv: [Vec2::ZERO; 3],
-                            material: mat,
-                            light: u32::MAX,
-                            instance: STATIC_INSTANCE,
-                        });
-                    }
-                }
-            }
-        }
+        let tracks = self.add_meshes(&mut b, animation.as_ref())?;
+        self.apply_material_overrides(&mut b)?;
+        self.add_light_quads(&mut b)?;
         if b.tris.is_empty() {
             return Err(self.invalid("the scene has no geometry: add a [[mesh]] or a [[light]]"));
         }
@@ -495,6 +394,130 @@ impl SceneDescription {
             scene.set_frame(a.frame_start)?;
         }
         Ok(scene)
+    }
+
+    /// Loads every `[[mesh]]` into `b`; returns the tracks of the moving ones (instance i has
+    /// track i).
+    fn add_meshes(
+        &self,
+        b: &mut Builder,
+        animation: Option<&AnimationSettings>,
+    ) -> SceneResult<Vec<TransformTrack>> {
+        let base = self.path.parent().unwrap_or(Path::new("")).to_path_buf();
+        let mut tracks = Vec::new();
+        for (i, mesh) in self.meshes.iter().enumerate() {
+            let xf = self.transform(i, mesh.transform.as_ref())?;
+            let track = self.mesh_track(i, mesh, animation)?;
+            let instance = match track {
+                Some(_) => tracks.len() as u32,
+                None => STATIC_INSTANCE,
+            };
+            let before = b.tris.len();
+            let select = ObjectFilter {
+                only: mesh.objects.as_deref(),
+                exclude: &mesh.exclude_objects,
+            };
+            let obj = base.join(&mesh.file);
+            if !obj.is_file() {
+                return Err(self.invalid(format!(
+                    "[[mesh]] #{}: cannot read {}: {}",
+                    i + 1,
+                    obj.display(),
+                    if obj.exists() {
+                        "not a file"
+                    } else {
+                        "file not found"
+                    }
+                )));
+            }
+            b.load_obj(&obj, xf, instance, &select)?;
+            if let Some(track) = track
+                && b.tris.len() > before
+            {
+                tracks.push(track);
+            }
+        }
+        Ok(tracks)
+    }
+
+    /// Applies `[materials.NAME]` overrides.
+    fn apply_material_overrides(&self, b: &mut Builder) -> SceneResult<()> {
+        for (name, ov) in &self.materials {
+            let Some(&idx) = b.material_index.get(name) else {
+                let mut known: Vec<&String> = b.material_index.keys().collect();
+                known.sort();
+                return Err(self.invalid(format!(
+                    "[materials.{name}]: no MTL material is named {name:?} (known: {known:?})"
+                )));
+            };
+            let m = &mut b.materials[idx as usize];
+            apply_override(m, ov)
+                .map_err(|msg| self.invalid(format!("[materials.{name}]: {msg}")))?;
+        }
+        Ok(())
+    }
+
+    /// Adds every `[[light]]` quad as two emissive triangles with a material of its own.
+    fn add_light_quads(&self, b: &mut Builder) -> SceneResult<()> {
+        for (i, l) in self.lights.iter().enumerate() {
+            match l {
+                LightDesc::Quad {
+                    corner,
+                    edge1,
+                    edge2,
+                    radiance,
+                } => {
+                    let vals = corner.iter().chain(edge1).chain(edge2).chain(radiance);
+                    if vals.clone().any(|v| !v.is_finite()) {
+                        return Err(
+                            self.invalid(format!("[[light]] #{}: values must be finite", i + 1))
+                        );
+                    }
+                    if radiance.iter().any(|&v| v < 0.0) {
+                        return Err(
+                            self.invalid(format!("[[light]] #{}: radiance must be ≥ 0", i + 1))
+                        );
+                    }
+                    let (c, e1, e2) = (Vec3::from(*corner), Vec3::from(*edge1), Vec3::from(*edge2));
+                    let far = [c, c + e1, c + e2, c + e1 + e2]
+                        .iter()
+                        .any(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE);
+                    if far {
+                        return Err(self.invalid(format!(
+                            "[[light]] #{}: corners beyond ±{MAX_COORDINATE:e}, where f32 \
+                                 arithmetic overflows",
+                            i + 1
+                        )));
+                    }
+                    if e1.cross(e2).length() <= 0.0 {
+                        return Err(self.invalid(format!(
+                            "[[light]] #{}: edge1 and edge2 must span a non-zero area",
+                            i + 1
+                        )));
+                    }
+                    let mat = b.materials.len() as u32;
+                    b.materials.push(Material {
+                        name: format!("light#{}", i + 1),
+                        kind: MaterialKind::Diffuse,
+                        kd: ColorSource::Constant(Vec3::ZERO),
+                        ks: ColorSource::Constant(Vec3::ZERO),
+                        transmittance: Vec3::ONE,
+                        emission: Some(ColorSource::Constant(Vec3::from(*radiance))),
+                    });
+                    for p in [[c, c + e1, c + e1 + e2], [c, c + e1 + e2, c + e2]] {
+                        b.tris.push(TriangleAttributes {
+                            p,
+                            n: None,
+                            uv: [Vec2::ZERO; 3],
+                            material: mat,
+                            light: u32::MAX,
+                            instance: STATIC_INSTANCE,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Emitted radiance times the luminance scale must stay well inside f32 (an emitter of
@@ -1142,27 +1165,9 @@ impl Builder {
         let (models, materials) = tobj::load_obj_buf(&mut text.as_slice(), &opts, |name| {
             let full = dir.join(name);
             mtl_paths.borrow_mut().push(full.clone());
-            let text = match std::fs::read(&full) {
-                Ok(t) => t,
-                Err(e) => {
-                    let msg = if full.exists() {
-                        format!("cannot read: {e}")
-                    } else {
-                        "file not found".to_string()
-                    };
-                    mtl_failure.borrow_mut().get_or_insert((full.clone(), msg));
-                    return Err(tobj::LoadError::OpenFileFailed);
-                }
-            };
-            let r = normalize_mtl(&text).map_err(|msg| {
+            let (r, msg) = load_mtl_checked(&full);
+            if let Some(msg) = msg {
                 mtl_failure.borrow_mut().get_or_insert((full.clone(), msg));
-                tobj::LoadError::MaterialParseError
-            });
-            let r = r.and_then(|t| tobj::load_mtl_buf(&mut t.as_bytes()));
-            if let Err(e) = &r {
-                mtl_failure
-                    .borrow_mut()
-                    .get_or_insert((full.clone(), format!("{e}")));
             }
             r
         })
@@ -1323,6 +1328,30 @@ pub const MAX_LUMINANCE_CD_M2: f64 = 1e20;
 /// arithmetic in the BVH build overflows (obvhs panicked at ±3e38 and on 1e30-sized lights);
 /// 1e15 leaves every physically sensible unit, from nanometres to light years, room.
 pub const MAX_COORDINATE: f32 = 1e15;
+
+/// Reads and parses one MTL file for tobj, validated by [`normalize_mtl`]; on failure also the
+/// message for the user.
+fn load_mtl_checked(full: &Path) -> (tobj::MTLLoadResult, Option<String>) {
+    let text = match std::fs::read(full) {
+        Ok(t) => t,
+        Err(e) => {
+            let msg = if full.exists() {
+                format!("cannot read: {e}")
+            } else {
+                "file not found".to_string()
+            };
+            return (Err(tobj::LoadError::OpenFileFailed), Some(msg));
+        }
+    };
+    match normalize_mtl(&text) {
+        Err(msg) => (Err(tobj::LoadError::MaterialParseError), Some(msg)),
+        Ok(t) => {
+            let r = tobj::load_mtl_buf(&mut t.as_bytes());
+            let msg = r.as_ref().err().map(|e| format!("{e}"));
+            (r, msg)
+        }
+    }
+}
 
 /// Validates an MTL file and returns its text in the form tobj parses without panicking: the
 /// colour statements `Ka`, `Kd`, `Ks`, `Ke` take 1 number (a grey, which the MTL specification

@@ -413,24 +413,7 @@ impl ThresholdMapper {
         let spec = self.levels[0].fft.forward(&canvas);
 
         // 1. Adaptation luminance, on its level's canvas and at the image pixels.
-        let (adapt_canvas, adapt_d) = match self.params.adaptation {
-            AdaptationMode::Global => (None, 1),
-            AdaptationMode::LocalArithmetic => {
-                let mut c = self.synthesize(&spec, self.adapt_level, &self.adapt_filter);
-                c.iter_mut().for_each(|v| *v = v.max(0.0));
-                (Some(c), self.levels[self.adapt_level].d)
-            }
-            AdaptationMode::LocalGeometric => {
-                let logs: Vec<f32> = canvas.iter().map(|&l| (LOG_DELTA_CD_M2 + l).ln()).collect();
-                let mut s = self.levels[0].fft.forward(&logs);
-                let sigma = window_sigma_px(self.params.adaptation_window_deg, &self.view);
-                gaussian_filter(&self.levels[0].fft, &mut s, sigma);
-                let mut c = vec![0f32; canvas.len()];
-                self.levels[0].fft.inverse(s, &mut c);
-                c.iter_mut().for_each(|v| *v = v.exp());
-                (Some(c), 1)
-            }
-        };
+        let (adapt_canvas, adapt_d) = self.adaptation_canvas(&canvas, &spec);
         let global = if adapt_canvas.is_none() {
             log_average(luminance)
         } else {
@@ -443,16 +426,7 @@ impl ThresholdMapper {
             }
         };
         // Retinal velocity per image pixel (deg/s), if any.
-        let v_retinal: Option<Vec<f32>> = velocity.map(|v| {
-            v.par_chunks(2)
-                .map(|d| {
-                    // px/frame → deg/s per component (velocity_deg_s takes a magnitude).
-                    let k = self.view.velocity_deg_s(1.0);
-                    let v = [d[0] as f64 * k, d[1] as f64 * k];
-                    retinal_velocity_tracked(v, eye) as f32
-                })
-                .collect()
-        });
+        let v_retinal = velocity.map(|v| self.retinal_velocities(v, eye));
         let v_at = |xf: f32, yf: f32| -> Option<f32> {
             v_retinal.as_ref().map(|vr| {
                 let x = ((xf - pad.x0 as f32).floor().max(0.0) as usize).min(w - 1);
@@ -571,6 +545,44 @@ impl ThresholdMapper {
             masking_elevation,
             noise_contrast,
         })
+    }
+
+    /// The adaptation luminance on its level's canvas (with that level's decimation), or `None`
+    /// (and 1) for global adaptation. `canvas` is the padded luminance, `spec` its spectrum.
+    fn adaptation_canvas(
+        &self,
+        canvas: &[f32],
+        spec: &[Complex32],
+    ) -> (Option<Vec<f32>>, usize) {
+        match self.params.adaptation {
+            AdaptationMode::Global => (None, 1),
+            AdaptationMode::LocalArithmetic => {
+                let mut c = self.synthesize(spec, self.adapt_level, &self.adapt_filter);
+                c.iter_mut().for_each(|v| *v = v.max(0.0));
+                (Some(c), self.levels[self.adapt_level].d)
+            }
+            AdaptationMode::LocalGeometric => {
+                let logs: Vec<f32> = canvas.iter().map(|&l| (LOG_DELTA_CD_M2 + l).ln()).collect();
+                let mut s = self.levels[0].fft.forward(&logs);
+                let sigma = window_sigma_px(self.params.adaptation_window_deg, &self.view);
+                gaussian_filter(&self.levels[0].fft, &mut s, sigma);
+                let mut c = vec![0f32; canvas.len()];
+                self.levels[0].fft.inverse(s, &mut c);
+                c.iter_mut().for_each(|v| *v = v.exp());
+                (Some(c), 1)
+            }
+        }
+    }
+
+    /// Retinal velocity (deg/s) per pixel of an image-velocity map (pixels per frame,
+    /// interleaved x, y) under the eye-tracking assumption `eye`.
+    fn retinal_velocities(&self, velocity: &[f32], eye: EyeTracking) -> Vec<f32> {
+        // px/frame → deg/s per component (velocity_deg_s takes a magnitude).
+        let k = self.view.velocity_deg_s(1.0);
+        velocity
+            .par_chunks(2)
+            .map(|d| retinal_velocity_tracked([d[0] as f64 * k, d[1] as f64 * k], eye) as f32)
+            .collect()
     }
 
     /// The weighted terms (w, w E, w M, w E M) of one band at one point, given the band
