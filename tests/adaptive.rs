@@ -323,3 +323,57 @@ fn speedup_runs_end_to_end_on_a_tiny_scene() {
     assert!(o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("using cached reference"));
 }
+
+#[test]
+fn settings_out_of_range_are_refused_not_clamped() {
+    let mut desc =
+        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
+    desc.camera.resolution = [8, 8];
+    let scene = Scene::load_description(desc).unwrap();
+    for (s, words) in [
+        (
+            AdaptiveSettings {
+                min_spp: 1,
+                ..Default::default()
+            },
+            "min_spp",
+        ),
+        (
+            AdaptiveSettings {
+                max_spp: 4,
+                ..Default::default()
+            },
+            "max_spp",
+        ),
+        (
+            AdaptiveSettings {
+                converged_fraction: 1.5,
+                ..Default::default()
+            },
+            "converged_fraction",
+        ),
+    ] {
+        let e = render_adaptive(&scene, &s, &|_| {}, &|_| {})
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(e.contains(words), "{e}");
+    }
+}
+
+#[test]
+fn a_spent_time_budget_stops_before_another_pass() {
+    // A budget far below the first pass: the loop judges once and stops, by time.
+    let mut desc =
+        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
+    desc.camera.resolution = [32, 32];
+    let scene = Scene::load_description(desc).unwrap();
+    let s = AdaptiveSettings {
+        time_budget: Some(std::time::Duration::from_micros(1)),
+        ..Default::default()
+    };
+    let r = render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap();
+    assert_eq!(r.stop, aleph::adaptive::StopReason::Time);
+    assert_eq!(r.passes.len(), 1);
+    assert_eq!(r.mean_spp(), s.min_spp as f64);
+}

@@ -394,10 +394,12 @@ pub fn render_adaptive(
         }
         _ => Criterion::Variance(VarianceCriterion::new(&st.film, s.variance_threshold)),
     };
+    let mut rate = st.stats.samples as f64 / st.stats.wall.as_secs_f64().max(1e-9);
     let (judgement, stop) = loop {
         let t0 = Instant::now();
         let (judgement, guide_time) = criterion.judge(scene, &st.film, s)?;
-        st.decision_time += t0.elapsed().saturating_sub(guide_time);
+        let last_judge = t0.elapsed().saturating_sub(guide_time);
+        st.decision_time += last_judge;
         let ratio = judgement.ratio();
         let converged = st.report(&ratio, progress);
         let remaining = budget_total.map(|b| b.saturating_sub(st.film.total_samples()));
@@ -416,13 +418,25 @@ pub fn render_adaptive(
         if let Some(rem) = remaining {
             fit_to_budget(&mut alloc, &st.film, &ratio, rem, s.max_spp);
         }
-        st.stats += render_counts(
+        if let Some(limit) = s.time_budget {
+            // Size the pass to land on the time budget: the samples the measured rate allows
+            // in the time left after the judgement that follows the pass.
+            let left = limit.saturating_sub(start.elapsed() + last_judge);
+            let affordable = (left.as_secs_f64() * rate) as u64;
+            if (affordable as f64) < 0.002 * n_px as f64 {
+                break (judgement, StopReason::Time);
+            }
+            fit_to_budget(&mut alloc, &st.film, &ratio, affordable, s.max_spp);
+        }
+        let pass = render_counts(
             scene,
             &integrator,
             &mut st.film,
             &alloc.want,
             sample_progress,
         );
+        rate = pass.samples as f64 / pass.wall.as_secs_f64().max(1e-9);
+        st.stats += pass;
     };
     let converged_fraction = st
         .passes

@@ -549,11 +549,7 @@ impl ThresholdMapper {
 
     /// The adaptation luminance on its level's canvas (with that level's decimation), or `None`
     /// (and 1) for global adaptation. `canvas` is the padded luminance, `spec` its spectrum.
-    fn adaptation_canvas(
-        &self,
-        canvas: &[f32],
-        spec: &[Complex32],
-    ) -> (Option<Vec<f32>>, usize) {
+    fn adaptation_canvas(&self, canvas: &[f32], spec: &[Complex32]) -> (Option<Vec<f32>>, usize) {
         match self.params.adaptation {
             AdaptationMode::Global => (None, 1),
             AdaptationMode::LocalArithmetic => {
