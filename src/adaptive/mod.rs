@@ -277,6 +277,8 @@ pub struct PassReport {
     pub converged_fraction: f64,
     /// Samples taken in this pass.
     pub samples: u64,
+    /// Wall time of rendering those samples (the guide and the judgement excluded).
+    pub render: Duration,
 }
 
 /// The result of an adaptive render.
@@ -322,6 +324,8 @@ struct LoopState {
     passes: Vec<PassReport>,
     /// Target ratio: 1 until the converged fraction is reached under a budget, then halved.
     t_level: f32,
+    /// Rendering time of the samples not yet reported.
+    unreported_render: Duration,
     decision_time: Duration,
 }
 
@@ -337,6 +341,7 @@ impl LoopState {
             mean_spp: taken as f64 / n_px as f64,
             converged_fraction: converged,
             samples: taken - prev,
+            render: std::mem::take(&mut self.unreported_render),
         };
         progress(&report);
         self.passes.push(report);
@@ -368,6 +373,7 @@ pub fn render_adaptive(
         stats: RenderStats::default(),
         passes: Vec::new(),
         t_level: 1.0,
+        unreported_render: Duration::ZERO,
         decision_time: Duration::ZERO,
     };
     if s.sampler == SamplerKind::Uniform {
@@ -383,7 +389,9 @@ pub fn render_adaptive(
         None => s.min_spp,
     };
     let first = vec![min_spp; n_px];
-    st.stats += render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
+    let pass = render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
+    st.unreported_render = pass.wall;
+    st.stats += pass;
     let mut criterion = match s.sampler {
         SamplerKind::Perceptual => {
             let motion = velocity
@@ -436,6 +444,7 @@ pub fn render_adaptive(
             sample_progress,
         );
         rate = pass.samples as f64 / pass.wall.as_secs_f64().max(1e-9);
+        st.unreported_render = pass.wall;
         st.stats += pass;
     };
     let converged_fraction = st
@@ -523,6 +532,7 @@ fn render_uniform_budget(
         mean_spp: spp as f64,
         converged_fraction: 1.0,
         samples: st.stats.samples,
+        render: st.stats.wall,
     };
     progress(&report);
     AdaptiveResult {

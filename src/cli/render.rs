@@ -417,6 +417,25 @@ pub(super) fn render_with_progress(
     )?)
 }
 
+/// Where a render's wall time went: first pass, later passes, guide, perception.
+fn time_split(r: &AdaptiveResult) -> String {
+    let first = r.passes.first().map(|p| p.render).unwrap_or_default();
+    let later: Duration = r.passes.iter().skip(1).map(|p| p.render).sum();
+    let mut parts = vec![format!("first pass {:.2} s", first.as_secs_f64())];
+    if r.passes.len() > 1 {
+        parts.push(format!(
+            "{} more passes {:.2} s",
+            r.passes.len() - 1,
+            later.as_secs_f64()
+        ));
+    }
+    if let Some(g) = r.guide_stats {
+        parts.push(format!("guide {:.2} s", g.wall.as_secs_f64()));
+        parts.push(format!("perception {:.2} s", r.decision_time.as_secs_f64()));
+    }
+    parts.join(", ")
+}
+
 /// The one-line summary of a render.
 pub(super) fn summary_line(
     scene: &Scene,
@@ -435,7 +454,7 @@ pub(super) fn summary_line(
     };
     format!(
         "{}{frame}: {w}×{h}, {} sampler, {:.1} spp mean ({} passes{}), {}, {:.1} % of pixels below threshold, \
-         {:.2} s ({:.2} s perception), {:.2} M samples/s, {:.2} M rays/s, {} non-finite samples dropped, \
+         {:.2} s ({}), {:.2} M samples/s, {:.2} M rays/s, {} non-finite samples dropped, \
          viewer at {:.1} pixels per degree -> {}, {} ({look})",
         scene.path.display(),
         settings.sampler.name(),
@@ -449,7 +468,7 @@ pub(super) fn summary_line(
         result.stop.describe(),
         100.0 * result.converged_fraction,
         secs,
-        result.decision_time.as_secs_f64(),
+        time_split(result),
         (st.samples + guide) as f64 / st.wall.as_secs_f64().max(1e-9) / 1e6,
         st.rays as f64 / st.wall.as_secs_f64().max(1e-9) / 1e6,
         st.nonfinite,
