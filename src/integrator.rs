@@ -11,9 +11,9 @@
 
 use crate::geometry::{Ray, offset_origin};
 use crate::math::Frame;
-use crate::rng::Rng;
 use crate::sampling::power_heuristic;
 use crate::scene::Scene;
+use crate::sobol::SampleSource;
 use glam::Vec3;
 
 /// Bounce at which Russian roulette starts.
@@ -60,7 +60,7 @@ pub const ALBEDO_EMITTER_CAP: f32 = 10.0;
 /// following up to 8 ideal-specular bounces and weighting by their reflectance; an emitter
 /// reports its radiance scaled so its luminance is at most [`ALBEDO_EMITTER_CAP`]; a miss is
 /// black. Uses `rng` only for the choice at dielectrics (reflect or refract by Fresnel).
-pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> Vec3 {
+pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut impl SampleSource) -> Vec3 {
     use crate::bsdf::Bsdf;
     let mut weight = Vec3::ONE;
     for _ in 0..8 {
@@ -110,7 +110,10 @@ pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> Vec3 {
 
 impl Integrator {
     /// Estimates the radiance arriving along `ray`.
-    pub fn radiance(&self, scene: &Scene, mut ray: Ray, rng: &mut Rng) -> PathResult {
+    /// `rng` gives the path's canonical random numbers in order: per vertex the light choice
+    /// (1-D), the point on the light (2-D), the lobe choice (1-D), the direction (2-D), then
+    /// Russian roulette (1-D).
+    pub fn radiance(&self, scene: &Scene, mut ray: Ray, rng: &mut impl SampleSource) -> PathResult {
         let geo = &scene.geometry;
         let mut l = Vec3::ZERO;
         let mut beta = Vec3::ONE;

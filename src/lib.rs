@@ -38,6 +38,7 @@ pub mod rng;
 pub mod sampling;
 pub mod scene;
 pub mod sequence;
+pub mod sobol;
 pub mod speedup;
 pub mod texture;
 pub mod velocity;
