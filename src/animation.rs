@@ -102,6 +102,18 @@ impl FrameTime {
     }
 }
 
+/// True for a non-empty sequence of strictly increasing key times.
+fn strictly_increasing(times: impl Iterator<Item = f32>) -> bool {
+    let mut prev: Option<f32> = None;
+    for t in times {
+        if prev.is_some_and(|p| t <= p) {
+            return false;
+        }
+        prev = Some(t);
+    }
+    prev.is_some()
+}
+
 /// Locates `t` among increasing key times: the segment index `i` (keys i and i+1) and the
 /// fraction in [0, 1] along it, or the held end key (`i`, 0) outside the range.
 fn locate(times: impl ExactSizeIterator<Item = f32> + Clone, t: f32) -> (usize, f32) {
@@ -143,10 +155,7 @@ impl TransformTrack {
     /// A track from keys sorted by strictly increasing time. `None` if `keys` is empty or
     /// unsorted (the scene loader reports which key).
     pub fn new(keys: Vec<TransformKey>) -> Option<TransformTrack> {
-        if keys.is_empty() || keys.windows(2).any(|w| w[1].time_s <= w[0].time_s) {
-            return None;
-        }
-        Some(TransformTrack { keys })
+        strictly_increasing(keys.iter().map(|k| k.time_s)).then_some(TransformTrack { keys })
     }
 
     /// The keys.
@@ -202,10 +211,7 @@ pub struct CameraTrack {
 impl CameraTrack {
     /// A track from keys sorted by strictly increasing time; `None` if empty or unsorted.
     pub fn new(keys: Vec<CameraKey>) -> Option<CameraTrack> {
-        if keys.is_empty() || keys.windows(2).any(|w| w[1].time_s <= w[0].time_s) {
-            return None;
-        }
-        Some(CameraTrack { keys })
+        strictly_increasing(keys.iter().map(|k| k.time_s)).then_some(CameraTrack { keys })
     }
 
     /// The keys.

@@ -18,7 +18,8 @@
 mod sweep;
 
 pub use sweep::{
-    Arm, Row, SpeedupError, Sweep, SweepSpec, frame_list, image_path, reference_key, sweep,
+    Arm, Row, SpeedupError, Sweep, SweepSpec, frame_key, frame_list, image_path, reference_key,
+    sweep,
 };
 
 use crate::display::FrozenToneMap;

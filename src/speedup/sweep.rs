@@ -79,9 +79,44 @@ pub struct Row {
     pub scores: Scores,
 }
 
-/// The cache key of a reference: FNV-1a over the scene file, its meshes and the settings that
-/// change the reference (resolution, spp, seed, depth, frame, aleph's version).
-pub fn reference_key(desc: &SceneDescription, spp: u32, seed: u64, frame: Option<i64>) -> String {
+impl Row {
+    /// One line for a log: arm, budget, spp used, wall time and scores.
+    pub fn summary(&self) -> String {
+        let s = &self.scores;
+        format!(
+            "{:>21} {:>6} spp: {:7.2} spp used, {:7.2} s, FLIP {:.4} (p99 {:.4}), visible {:.4}, relMSE {:.5}",
+            self.sampler.name(),
+            self.budget,
+            self.mean_spp,
+            self.wall_s,
+            s.flip_mean,
+            s.flip_p99,
+            s.visible_fraction,
+            s.relmse
+        )
+    }
+
+    /// `sampler,budget_spp,mean_spp,wall_s,flip_mean,flip_p99,visible_fraction,relmse`.
+    pub fn csv_fields(&self) -> String {
+        let s = &self.scores;
+        format!(
+            "{},{},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8}",
+            self.sampler.name(),
+            self.budget,
+            self.mean_spp,
+            self.wall_s,
+            s.flip_mean,
+            s.flip_p99,
+            s.visible_fraction,
+            s.relmse
+        )
+    }
+}
+
+/// The cache key of a scene's references: FNV-1a over the scene file, its meshes and the
+/// settings that change a reference (resolution, spp, seed, depth, aleph's version). A
+/// sequence frame's key appends its number ([`frame_key`]), so the files are read once.
+pub fn reference_key(desc: &SceneDescription, spp: u32, seed: u64) -> String {
     struct Fnv(u64);
     impl Hasher for Fnv {
         fn finish(&self) -> u64 {
@@ -101,7 +136,7 @@ pub fn reference_key(desc: &SceneDescription, spp: u32, seed: u64, frame: Option
     }
     h.write(
         format!(
-            "{:?}|{spp}|{seed}|{:?}|{frame:?}|{}",
+            "{:?}|{spp}|{seed}|{:?}|{}",
             desc.camera.resolution,
             desc.render.max_depth,
             env!("CARGO_PKG_VERSION")
@@ -109,6 +144,14 @@ pub fn reference_key(desc: &SceneDescription, spp: u32, seed: u64, frame: Option
         .as_bytes(),
     );
     format!("{:016x}", h.finish())
+}
+
+/// The key of one frame's reference under a scene key from [`reference_key`].
+pub fn frame_key(scene_key: &str, frame: Option<i64>) -> String {
+    match frame {
+        None => scene_key.to_string(),
+        Some(f) => format!("{scene_key}-{f:04}"),
+    }
 }
 
 fn planes(film: &Film) -> Vec<(String, ChannelData)> {
@@ -399,6 +442,7 @@ pub fn sweep(
         Operator::Exposure
     };
     let operator = spec.operator.unwrap_or(default_op);
+    let scene_key = reference_key(&desc, spec.reference_spp, spec.seed);
     let mut st = SweepState {
         acc: (0..arms.len() * spec.budgets.len())
             .map(|_| Acc::default())
@@ -419,7 +463,7 @@ pub fn sweep(
         tone.operator = operator;
         tone.luminance_scale = scene.settings.luminance_scale;
         tone.adaptation_state = course.as_ref().zip(frame).map(|(c, f)| c.state_at(f));
-        let key = reference_key(&desc, spec.reference_spp, spec.seed, frame);
+        let key = frame_key(&scene_key, frame);
         let ref_path = dir.join(format!("reference-{key}.exr"));
         let reference = reference_for(&ref_scene, &ref_path, spec.reference_spp, log)?;
         let ctx = FrameCtx {
@@ -549,28 +593,12 @@ fn sweep_frame(
                 scores,
             };
             let label = ctx.frame.map(|f| format!("frame {f} ")).unwrap_or_default();
-            log(&format!(
-                "{label}{:>21} {:>6} spp: {:7.2} spp used, {:7.2} s, FLIP {:.4} (p99 {:.4}), visible {:.4}, relMSE {:.5}",
-                arm.name(),
-                budget,
-                row.mean_spp,
-                wall,
-                scores.flip_mean,
-                scores.flip_p99,
-                scores.visible_fraction,
-                scores.relmse
-            ));
+            log(&format!("{label}{}", row.summary()));
             let _ = writeln!(
                 st.per_frame,
-                "{},{},{budget},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8}",
+                "{},{}",
                 ctx.frame.unwrap_or(0),
-                arm.name(),
-                row.mean_spp,
-                wall,
-                scores.flip_mean,
-                scores.flip_p99,
-                scores.visible_fraction,
-                scores.relmse
+                row.csv_fields()
             );
             stage_png(&mut images, &format!("{}-{}spp", arm.name(), budget), &rgb)?;
             st.acc[bi * ctx.arms.len() + ai].add(&row);
