@@ -6,23 +6,130 @@
 //! - the sum of squared luminance Σ Y², for the sample variance;
 //! - the sample count n (samples 0..n have been taken; the next has index n).
 //!
-//! Values are linear Rec.709 radiance in W·sr⁻¹·m⁻²; sums are `f64` so that millions of samples
-//! do not lose precision. A pixel's samples are added in index order, so adding more later
-//! continues its random stream exactly (see [`crate::rng`]).
+//! Values are linear Rec.709 radiance in W·sr⁻¹·m⁻². Every sum is an [`ExactSum`]: the f32
+//! samples are added without rounding, so a sum does not depend on the order or grouping of its
+//! samples. That is what makes a film rendered in parts on several machines and merged
+//! ([`Film::merge`], [`crate::partial`]) bit-identical to the same samples rendered in one go. A
+//! pixel's samples are added in index order, so adding more later continues its random stream
+//! exactly (see [`crate::rng`]).
 
 use glam::{DVec3, Vec3};
+
+/// A sum of f64 values kept as an unevaluated pair `hi + lo` (Knuth's TwoSum; Ogita, Rump &
+/// Oishi 2005, "Accurate sum and dot product", Algorithm 3.1 without the final rounding).
+///
+/// Each [`add`](ExactSum::add) is error-free in `hi`; the rounding errors collect in `lo`, which
+/// adds them exactly as long as they fit in its 53 bits. For sums of f32 samples and their
+/// (24-bit mantissas) that holds whenever no sample is below about 2⁻⁸⁰ of its pixel's sum: the
+/// pair then holds the exact real sum, whatever the order or grouping of the additions, and
+/// [`value`](ExactSum::value) is that sum correctly rounded to f64. Squares of samples span
+/// twice the range, so a sum of squares may round; it is then accurate to about 2⁻¹⁰⁰ of its
+/// value. Equality compares the exact sums (the canonical pair of
+/// [`normalized`](ExactSum::normalized)).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ExactSum {
+    hi: f64,
+    lo: f64,
+}
+
+impl ExactSum {
+    /// The pair `hi + lo` (for files; [`normalized`](ExactSum::normalized) first for a
+    /// canonical form).
+    pub fn from_parts(hi: f64, lo: f64) -> ExactSum {
+        ExactSum { hi, lo }
+    }
+
+    /// `(hi, lo)`.
+    pub fn parts(&self) -> (f64, f64) {
+        (self.hi, self.lo)
+    }
+
+    /// Adds `x` (TwoSum: `hi + x = s + e` exactly).
+    #[inline]
+    pub fn add(&mut self, x: f64) {
+        let s = self.hi + x;
+        let bp = s - self.hi;
+        let e = (self.hi - (s - bp)) + (x - bp);
+        self.hi = s;
+        self.lo += e;
+    }
+
+    /// Adds another sum.
+    #[inline]
+    pub fn merge(&mut self, o: &ExactSum) {
+        self.add(o.hi);
+        self.add(o.lo);
+    }
+
+    /// The sum rounded to f64.
+    #[inline]
+    pub fn value(&self) -> f64 {
+        self.hi + self.lo
+    }
+
+    /// The canonical pair of the same sum: `hi` = the sum rounded to f64, `lo` = the exact rest.
+    pub fn normalized(&self) -> ExactSum {
+        let mut n = ExactSum {
+            hi: self.hi,
+            lo: 0.0,
+        };
+        n.add(self.lo);
+        n
+    }
+}
+
+impl PartialEq for ExactSum {
+    fn eq(&self, o: &ExactSum) -> bool {
+        let (a, b) = (self.normalized(), o.normalized());
+        a.hi == b.hi && a.lo == b.lo
+    }
+}
+
+/// Three [`ExactSum`]s, for RGB.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExactRgb(pub [ExactSum; 3]);
+
+impl ExactRgb {
+    /// Adds an RGB value.
+    #[inline]
+    pub fn add(&mut self, v: DVec3) {
+        self.0[0].add(v.x);
+        self.0[1].add(v.y);
+        self.0[2].add(v.z);
+    }
+
+    /// Adds another sum.
+    #[inline]
+    pub fn merge(&mut self, o: &ExactRgb) {
+        for c in 0..3 {
+            self.0[c].merge(&o.0[c]);
+        }
+    }
+
+    /// The sums rounded to f64.
+    #[inline]
+    pub fn value(&self) -> DVec3 {
+        DVec3::new(self.0[0].value(), self.0[1].value(), self.0[2].value())
+    }
+}
 
 /// Sample statistics of one pixel.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PixelStats {
     /// RGB sum of samples with even index (half-buffer A).
-    pub sum_even: DVec3,
+    pub sum_even: ExactRgb,
     /// RGB sum of samples with odd index (half-buffer B).
-    pub sum_odd: DVec3,
-    /// Σ Y² over all samples (Y = Rec.709 luminance of the sample).
-    pub sum_lum2: f64,
-    /// Number of samples taken.
+    pub sum_odd: ExactRgb,
+    /// Σ Y² over all samples (Y = Rec.709 luminance of the sample). Not exact when the squares
+    /// span more than the pair holds (see [`ExactSum`]): a merged film's Σ Y² may then differ
+    /// from a single render's by about 2⁻¹⁰⁰ of its value. It only feeds variance estimates,
+    /// never the image.
+    pub sum_lum2: ExactSum,
+    /// Number of samples taken (the next sample's index): samples `first..n` are in the sums.
     pub n: u32,
+    /// Index of the first sample in the sums: 0, except in a partial film that holds a range of
+    /// samples rendered on its own ([`crate::partial`]).
+    pub first: u32,
 }
 
 impl PixelStats {
@@ -31,35 +138,49 @@ impl PixelStats {
     pub fn add(&mut self, rgb: Vec3) {
         let v = rgb.as_dvec3();
         if self.n.is_multiple_of(2) {
-            self.sum_even += v;
+            self.sum_even.add(v);
         } else {
-            self.sum_odd += v;
+            self.sum_odd.add(v);
         }
         let y = crate::math::luminance(rgb) as f64;
-        self.sum_lum2 += y * y;
+        self.sum_lum2.add(y * y);
         self.n += 1;
+    }
+
+    /// Samples in the sums (`n − first`).
+    #[inline]
+    pub fn count(&self) -> u32 {
+        self.n - self.first
+    }
+
+    /// RGB sum of all samples.
+    #[inline]
+    pub fn sum(&self) -> DVec3 {
+        let mut s = self.sum_even;
+        s.merge(&self.sum_odd);
+        s.value()
     }
 
     /// Mean radiance (zero when no samples).
     #[inline]
     pub fn mean(&self) -> DVec3 {
-        if self.n == 0 {
+        if self.count() == 0 {
             DVec3::ZERO
         } else {
-            (self.sum_even + self.sum_odd) / self.n as f64
+            self.sum() / self.count() as f64
         }
     }
 
     /// Number of samples in half-buffer A (even indices).
     #[inline]
     pub fn n_even(&self) -> u32 {
-        self.n.div_ceil(2)
+        self.n.div_ceil(2) - self.first.div_ceil(2)
     }
 
     /// Number of samples in half-buffer B (odd indices).
     #[inline]
     pub fn n_odd(&self) -> u32 {
-        self.n / 2
+        self.n / 2 - self.first / 2
     }
 
     /// Mean of half-buffer A (zero when empty).
@@ -69,7 +190,7 @@ impl PixelStats {
         if n == 0 {
             DVec3::ZERO
         } else {
-            self.sum_even / n as f64
+            self.sum_even.value() / n as f64
         }
     }
 
@@ -80,32 +201,54 @@ impl PixelStats {
         if n == 0 {
             DVec3::ZERO
         } else {
-            self.sum_odd / n as f64
+            self.sum_odd.value() / n as f64
         }
     }
 
     /// Unbiased sample variance of the luminance of one sample (0 with fewer than 2 samples).
     #[inline]
     pub fn lum_variance(&self) -> f64 {
-        if self.n < 2 {
+        if self.count() < 2 {
             return 0.0;
         }
-        let n = self.n as f64;
+        let n = self.count() as f64;
         let m = self.mean();
         let mean_y = crate::math::luminance(m.as_vec3()) as f64;
-        ((self.sum_lum2 - n * mean_y * mean_y) / (n - 1.0)).max(0.0)
+        ((self.sum_lum2.value() - n * mean_y * mean_y) / (n - 1.0)).max(0.0)
     }
 
     /// Standard error of the pixel's mean luminance: sqrt(variance / n).
     #[inline]
     pub fn lum_std_error(&self) -> f64 {
-        if self.n < 2 {
+        if self.count() < 2 {
             return f64::INFINITY;
         }
-        (self.lum_variance() / self.n as f64).sqrt()
+        (self.lum_variance() / self.count() as f64).sqrt()
+    }
+
+    /// Adds the samples of `o`, which must follow on from these (`o.first == self.n`) or come
+    /// before them (`o.n == self.first`); `false` (and nothing changed) otherwise.
+    pub fn merge(&mut self, o: &PixelStats) -> bool {
+        if o.count() == 0 {
+            return true;
+        }
+        if self.count() == 0 {
+            *self = *o;
+            return true;
+        }
+        if o.first == self.n {
+            self.n = o.n;
+        } else if o.n == self.first {
+            self.first = o.first;
+        } else {
+            return false;
+        }
+        self.sum_even.merge(&o.sum_even);
+        self.sum_odd.merge(&o.sum_odd);
+        self.sum_lum2.merge(&o.sum_lum2);
+        true
     }
 }
-
 /// A `width × height` grid of [`PixelStats`], row-major, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
@@ -168,12 +311,56 @@ impl Film {
 
     /// Sample count per pixel.
     pub fn spp(&self) -> Vec<u32> {
-        self.pixels.iter().map(|p| p.n).collect()
+        self.pixels.iter().map(|p| p.count()).collect()
     }
 
     /// Total number of samples over all pixels.
     pub fn total_samples(&self) -> u64 {
-        self.pixels.iter().map(|p| p.n as u64).sum()
+        self.pixels.iter().map(|p| p.count() as u64).sum()
+    }
+
+    /// An empty film whose pixels take their next samples from index `first` on: a partial
+    /// film for the sample range `first..` ([`crate::partial`]).
+    pub fn starting_at(width: u32, height: u32, first: u32) -> Film {
+        let px = PixelStats {
+            n: first,
+            first,
+            ..Default::default()
+        };
+        Film {
+            width,
+            height,
+            pixels: vec![px; width as usize * height as usize],
+        }
+    }
+
+    /// Adds the samples of `other`, a film of the same size whose every pixel holds the sample
+    /// range just before or just after this film's. The RGB sums and counts of the result equal,
+    /// bit for bit, those of the film that took all the samples in one go, and so does its image
+    /// (the sums are exact, see [`ExactSum`]); Σ Y² agrees to about 2⁻¹⁰⁰.
+    ///
+    /// # Errors
+    /// A message naming the first pixel whose ranges do not meet, or the sizes; `self` is then
+    /// unchanged.
+    pub fn merge(&mut self, other: &Film) -> Result<(), String> {
+        if (self.width, self.height) != (other.width, other.height) {
+            return Err(format!(
+                "sizes differ: {}×{} and {}×{}",
+                self.width, self.height, other.width, other.height
+            ));
+        }
+        let mut merged = self.pixels.clone();
+        for (i, (a, b)) in merged.iter_mut().zip(&other.pixels).enumerate() {
+            if !a.merge(b) {
+                let (x, y) = (i % self.width as usize, i / self.width as usize);
+                return Err(format!(
+                    "pixel ({x}, {y}): samples {}..{} and {}..{} do not meet",
+                    a.first, a.n, b.first, b.n
+                ));
+            }
+        }
+        self.pixels = merged;
+        Ok(())
     }
 }
 
@@ -194,5 +381,90 @@ mod tests {
         assert!((p.mean_odd().x - 4.5).abs() < 1e-12);
         // Grey has luminance equal to its value: sample variance of {1,3,2,6,4} is 3.7.
         assert!((p.lum_variance() - 3.7).abs() < 1e-5);
+    }
+
+    /// f32 samples over 2⁻³⁰ … 2³⁰ with heavy tails, as path tracing gives.
+    fn samples(n: usize, seed: u64) -> Vec<Vec3> {
+        let mut rng = crate::rng::Rng::for_sample(seed, 0, 0);
+        (0..n)
+            .map(|_| {
+                let (a, b) = rng.uniform2().into();
+                let e = (a * 60.0 - 30.0).round();
+                Vec3::new(b * e.exp2(), (1.0 - b) * 0.5, b * b * 1e3)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn exact_sums_do_not_depend_on_grouping() {
+        let xs = samples(5000, 7);
+        let mut whole = PixelStats::default();
+        xs.iter().for_each(|&v| whole.add(v));
+        for cut in [1usize, 2, 777, 2500, 4999] {
+            let mut a = PixelStats::default();
+            xs[..cut].iter().for_each(|&v| a.add(v));
+            let mut b = PixelStats {
+                n: cut as u32,
+                first: cut as u32,
+                ..Default::default()
+            };
+            xs[cut..].iter().for_each(|&v| b.add(v));
+            let mut ab = a;
+            assert!(ab.merge(&b));
+            let mut ba = b;
+            assert!(ba.merge(&a));
+            for m in [ab, ba] {
+                assert_eq!(m.sum_even, whole.sum_even, "cut {cut}");
+                assert_eq!(m.sum_odd, whole.sum_odd, "cut {cut}");
+                // Squares span twice the range: Σ Y² is accurate to the pair's 2^-100, not exact.
+                let (l, r) = (m.sum_lum2.value(), whole.sum_lum2.value());
+                assert!(
+                    (l - r).abs() <= 2f64.powi(-98) * r.abs(),
+                    "cut {cut}: {l} {r}"
+                );
+                assert_eq!((m.n, m.first), (whole.n, whole.first));
+                let bits = |p: &PixelStats| p.mean().to_array().map(f64::to_bits);
+                assert_eq!(bits(&m), bits(&whole));
+                assert_eq!((m.n_even(), m.n_odd()), (whole.n_even(), whole.n_odd()));
+            }
+        }
+        // The sum is the exactly rounded real sum: compare with a sum in i128 fixed point
+        // (every value here is a multiple of 2^-54 below 2^30).
+        let fixed: i128 = xs
+            .iter()
+            .map(|v| (v.x as f64 * 2f64.powi(60)) as i128)
+            .sum();
+        let exact = fixed as f64 / 2f64.powi(60);
+        let mut s = ExactSum::default();
+        xs.iter().for_each(|v| s.add(v.x as f64));
+        assert_eq!(s.value(), exact);
+        // A plain f64 sum in another order differs: the test can tell.
+        let fwd: f64 = xs.iter().map(|v| v.x as f64).sum();
+        let rev: f64 = xs.iter().rev().map(|v| v.x as f64).sum();
+        assert_ne!(fwd.to_bits(), rev.to_bits());
+    }
+
+    #[test]
+    fn merge_refuses_ranges_that_do_not_meet() {
+        let mut a = Film::starting_at(2, 1, 0);
+        let mut b = Film::starting_at(2, 1, 8);
+        a.pixels
+            .iter_mut()
+            .for_each(|p| (0..4).for_each(|_| p.add(Vec3::ONE)));
+        b.pixels
+            .iter_mut()
+            .for_each(|p| (0..4).for_each(|_| p.add(Vec3::ONE)));
+        let before = a.clone();
+        let err = a.merge(&b).unwrap_err();
+        assert!(
+            err.contains("pixel (0, 0): samples 0..4 and 8..12"),
+            "{err}"
+        );
+        assert_eq!(a, before);
+        assert!(
+            a.merge(&Film::new(3, 1))
+                .unwrap_err()
+                .contains("sizes differ")
+        );
     }
 }

@@ -225,6 +225,57 @@ pub fn read_exr_channels(
         .collect())
 }
 
+/// Width, height, u32 channels by name, and text attributes of an EXR's first layer.
+pub type RawExr = (
+    u32,
+    u32,
+    std::collections::HashMap<String, Vec<u32>>,
+    std::collections::HashMap<String, String>,
+);
+
+/// The first layer of an EXR file as its size, its 32-bit unsigned integer channels (exactly as
+/// stored, for bit patterns such as a partial film's sums) and its text attributes.
+///
+/// # Errors
+/// [`ImageError::Read`] naming the file (missing, malformed, or larger than
+/// [`MAX_IMAGE_PIXELS`]).
+pub fn read_exr_channels_raw(path: &Path) -> Result<RawExr, ImageError> {
+    let err = |message: String| ImageError::Read {
+        path: path.to_path_buf(),
+        message,
+    };
+    check_exr_size(path).map_err(err)?;
+    let img = exr::prelude::read_all_flat_layers_from_file(path).map_err(|e| err(e.to_string()))?;
+    let layer = img
+        .layer_data
+        .first()
+        .ok_or_else(|| err("no layer".into()))?;
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .filter_map(|c| match &c.sample_data {
+            exr::prelude::FlatSamples::U32(v) => Some((c.name.to_string(), v.clone())),
+            _ => None,
+        })
+        .collect();
+    let attributes = layer
+        .attributes
+        .other
+        .iter()
+        .filter_map(|(k, v)| match v {
+            exr::meta::attribute::AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+            _ => None,
+        })
+        .collect();
+    Ok((
+        layer.size.width() as u32,
+        layer.size.height() as u32,
+        channels,
+        attributes,
+    ))
+}
+
 /// Refuses a header whose layers claim more than [`MAX_IMAGE_PIXELS`].
 fn check_exr_size(path: &Path) -> Result<(), String> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| e.to_string())?;

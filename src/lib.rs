@@ -33,6 +33,7 @@ pub mod light;
 pub mod material;
 pub mod math;
 pub mod output;
+pub mod partial;
 pub mod render;
 pub mod rng;
 pub mod sampling;

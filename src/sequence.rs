@@ -60,8 +60,8 @@ pub fn adaptation_stimulus(scene: &Scene) -> (f64, f64) {
     let mut sums = vec![(glam::DVec3::ZERO, 0u32); bw * bh];
     for (i, p) in film.pixels.iter().enumerate().filter(|(_, p)| p.n > 0) {
         let b = &mut sums[(i / w) / block * bw + (i % w) / block];
-        b.0 += p.sum_even + p.sum_odd;
-        b.1 += p.n;
+        b.0 += p.sum();
+        b.1 += p.count();
     }
     let rgb_cd: Vec<f32> = sums
         .iter()

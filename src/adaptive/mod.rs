@@ -191,6 +191,18 @@ impl Default for AdaptiveSettings {
     }
 }
 
+impl AdaptiveSettings {
+    /// Samples per pixel of the uniform sampler: the budget rounded (at least 1), else
+    /// `uniform_spp`, capped at `max_spp`.
+    pub fn uniform_total_spp(&self) -> u32 {
+        match self.budget_spp {
+            Some(b) => b.round().max(1.0) as u32,
+            None => self.uniform_spp,
+        }
+        .min(self.max_spp)
+    }
+}
+
 /// Errors of an adaptive render.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -520,11 +532,7 @@ fn render_uniform_budget(
         max_depth: scene.settings.max_depth,
         strategy: Strategy::Mis,
     };
-    let spp = match s.budget_spp {
-        Some(b) => b.round().max(1.0) as u32,
-        None => s.uniform_spp,
-    }
-    .min(s.max_spp);
+    let spp = s.uniform_total_spp();
     let counts = vec![spp; st.film.len()];
     st.stats += render_counts(scene, &integrator, &mut st.film, &counts, sample_progress);
     let report = PassReport {

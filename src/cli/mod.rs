@@ -2,6 +2,7 @@
 //! exit with status 2 (status 1 is reserved for "a visible difference was found" by `diff`).
 
 mod diff;
+mod merge;
 mod render;
 mod sequence;
 mod speedup;
@@ -31,6 +32,18 @@ enum Command {
     /// Benchmark perceptual sampling against uniform and variance sampling at equal quality
     /// (FLIP, aleph's metric, relMSE) against a cached high-spp reference.
     Speedup(speedup::SpeedupArgs),
+    /// Sum the partial films of one render (`render --part I/K`, from several machines) into the
+    /// files the render writes on one machine, bit for bit.
+    Merge(merge::MergeArgs),
+}
+
+/// The command line after the subcommand `name` (for the record partial films keep).
+fn argv_after(name: &str) -> Vec<String> {
+    let all: Vec<String> = std::env::args().skip(1).collect();
+    match all.iter().position(|a| a == name) {
+        Some(i) => all[i + 1..].to_vec(),
+        None => Vec::new(),
+    }
 }
 
 /// Exit status for errors (bad input, I/O failures).
@@ -39,7 +52,11 @@ pub const EXIT_ERROR: u8 = 2;
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(args) => render::run(args),
+        Command::Render(mut args) => {
+            args.argv = argv_after("render");
+            render::run(args)
+        }
+        Command::Merge(args) => merge::run(args),
         Command::Diff(args) => diff::run(args),
         Command::Tonemap(args) => tonemap::run(args),
         Command::Speedup(args) => speedup::run(args),

@@ -8,6 +8,7 @@ use aleph::adaptive::{
 use aleph::deliver::{Look, write_render};
 use aleph::display::ToneMapSettings;
 use aleph::scene::{Scene, SceneDescription};
+use aleph::sequence::AdaptationCourse;
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -263,10 +264,33 @@ pub struct RenderArgs {
         help_heading = "Sequences"
     )]
     pub(super) frame: Option<i64>,
+    /// Render part I of K of a uniform render's samples (I from 1; samples (I−1)·N/K ..
+    /// I·N/K of every pixel, N = --spp) to OUT.part-I-of-K.exr, a partial film. `aleph merge`
+    /// sums the K parts into the image a single render gives, bit for bit. Uniform sampler,
+    /// one still or one --frame.
+    #[arg(long, value_name = "I/K", value_parser = parse_part, help_heading = "Render farms")]
+    pub(super) part: Option<(u32, u32)>,
     #[command(flatten)]
     pub(super) sampling: SamplingArgs,
     #[command(flatten)]
     pub(super) tone: ToneArgs,
+    /// The command line after `render`, as given (recorded in partial films).
+    #[arg(skip)]
+    pub(super) argv: Vec<String>,
+}
+
+/// Parses `I/K` with 1 ≤ I ≤ K.
+pub(super) fn parse_part(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("expected I/K with 1 ≤ I ≤ K (part I of K), got {s:?}");
+    let (i, k) = s.split_once('/').ok_or_else(bad)?;
+    let (i, k): (u32, u32) = (
+        i.trim().parse().map_err(|_| bad())?,
+        k.trim().parse().map_err(|_| bad())?,
+    );
+    if i == 0 || i > k {
+        return Err(bad());
+    }
+    Ok((i, k))
 }
 
 /// Output stem: explicit, or the scene's name (its directory's name for `scene.toml`).
@@ -305,7 +329,20 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     {
         bail!("--spp must be at least 1, got {n}");
     }
-    let mut desc = SceneDescription::read(&scene_path)?;
+    let desc = scene_description(&args, &scene_path)?;
+    let stem = output_stem(&args, &scene_path);
+    // Refuse an unwritable output location before rendering, not after.
+    aleph::output::check_output_location(&with_ext(&stem, "exr"))?;
+    aleph::output::check_output_location(&with_ext(&stem, "png"))?;
+    with_threads(args.threads, move || render_and_write(desc, &stem, &args))?
+}
+
+/// The scene file with the command line's overrides (resolution, seed, depth).
+pub(super) fn scene_description(
+    args: &RenderArgs,
+    scene_path: &Path,
+) -> anyhow::Result<SceneDescription> {
+    let mut desc = SceneDescription::read(scene_path)?;
     if let Some((w, h)) = args.resolution {
         desc.camera.resolution = [w, h];
     }
@@ -315,11 +352,56 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     if let Some(d) = args.max_depth {
         desc.render.max_depth = Some(d);
     }
-    let stem = output_stem(&args, &scene_path);
-    // Refuse an unwritable output location before rendering, not after.
-    aleph::output::check_output_location(&with_ext(&stem, "exr"))?;
-    aleph::output::check_output_location(&with_ext(&stem, "png"))?;
-    with_threads(args.threads, move || render_and_write(desc, &stem, &args))?
+    Ok(desc)
+}
+
+/// Sampler settings and PNG look of a still.
+pub(super) fn still_settings(
+    scene: &Scene,
+    args: &RenderArgs,
+) -> anyhow::Result<(AdaptiveSettings, Look)> {
+    let op = args
+        .tonemap
+        .map(Operator::from)
+        .unwrap_or(Operator::Exposure);
+    let tone = args.tone.settings(
+        op,
+        scene.camera.width as usize,
+        scene.settings.luminance_scale,
+    )?;
+    let settings =
+        args.sampling
+            .settings(args.sampler.into(), args.spp, scene.settings.spp, tone)?;
+    let look = match args.tonemap {
+        Some(_) => Look::Tone(settings.tone),
+        None => Look::Exposure(args.exposure),
+    };
+    Ok((settings, look))
+}
+
+/// Sampler settings and PNG look of the scene's current frame of a sequence whose viewer
+/// adaptation is `course` (PTYG by default).
+pub(super) fn frame_settings(
+    scene: &Scene,
+    args: &RenderArgs,
+    course: &AdaptationCourse,
+) -> anyhow::Result<(AdaptiveSettings, Look)> {
+    let op = match (args.tonemap, args.exposure) {
+        (Some(op), _) => Operator::from(op),
+        (None, Some(_)) => Operator::Exposure,
+        (None, None) => Operator::Ptyg,
+    };
+    let w = scene.camera.width as usize;
+    let mut tone = args.tone.settings(op, w, scene.settings.luminance_scale)?;
+    tone.adaptation_state = Some(course.state_at(scene.frame.index));
+    let settings =
+        args.sampling
+            .settings(args.sampler.into(), args.spp, scene.settings.spp, tone)?;
+    let look = match args.exposure {
+        Some(ev) => Look::Exposure(Some(ev)),
+        None => Look::Tone(settings.tone),
+    };
+    Ok((settings, look))
 }
 
 /// Parses `A-B`, `A..B` or a single frame `N`.
@@ -349,6 +431,9 @@ fn render_and_write(
     args: &RenderArgs,
 ) -> anyhow::Result<ExitCode> {
     let mut scene = Scene::load_description(desc)?;
+    if let Some(part) = args.part {
+        return super::merge::render_part_file(scene, stem, args, part);
+    }
     let range = match (args.frames, args.frame, scene.animation) {
         (Some(r), _, _) => Some(r),
         (_, Some(f), _) => Some((f, f)),
@@ -366,26 +451,12 @@ fn render_and_write(
         scene.set_frame(last)?;
         return super::sequence::render_sequence(&mut scene, first, last, stem, args);
     }
-    let w = scene.camera.width;
-    let op = args
-        .tonemap
-        .map(Operator::from)
-        .unwrap_or(Operator::Exposure);
-    let tone = args
-        .tone
-        .settings(op, w as usize, scene.settings.luminance_scale)?;
-    let settings =
-        args.sampling
-            .settings(args.sampler.into(), args.spp, scene.settings.spp, tone)?;
+    let (settings, look) = still_settings(&scene, args)?;
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
     bar.set_style(ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap());
     bar.enable_steady_tick(Duration::from_millis(200));
     let result = render_with_progress(&scene, &settings, &bar, "")?;
     bar.finish_and_clear();
-    let look = match args.tonemap {
-        Some(_) => Look::Tone(settings.tone),
-        None => Look::Exposure(args.exposure),
-    };
     let written = write_render(&scene, stem, &settings, &result, look, args.aov)?;
     println!(
         "{}",

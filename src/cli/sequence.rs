@@ -1,15 +1,14 @@
 //! `aleph render` of an animated scene: frames one after another, numbered outputs, the
 //! viewer's adaptation carried across frames, an animated preview and a filmstrip.
 
-use super::render::{RenderArgs, render_with_progress, summary_line};
-use aleph::deliver::{Look, with_ext, write_render};
+use super::render::{RenderArgs, frame_settings, render_with_progress, summary_line};
+use aleph::deliver::{with_ext, write_render};
 use aleph::display::filmstrip;
 use aleph::output::{AtomicOutputs, write_apng, write_png};
 use aleph::scene::Scene;
 use aleph::sequence::AdaptationCourse;
 use anyhow::Context;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
-use perception::tmo::Operator;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -75,22 +74,9 @@ pub fn render_sequence(
     let (mut samples, mut pixels, mut perception_s) = (0u64, 0u64, 0.0);
     for f in first..=last {
         scene.set_frame(f)?;
-        let op = match (args.tonemap, args.exposure) {
-            (Some(op), _) => Operator::from(op),
-            (None, Some(_)) => Operator::Exposure,
-            (None, None) => Operator::Ptyg,
-        };
-        let mut tone = args.tone.settings(op, w, scene.settings.luminance_scale)?;
-        tone.adaptation_state = Some(course.state_at(f));
-        let settings =
-            args.sampling
-                .settings(args.sampler.into(), args.spp, scene.settings.spp, tone)?;
+        let (settings, look) = frame_settings(scene, args, &course)?;
         frame_bar.reset_elapsed();
         let result = render_with_progress(scene, &settings, &frame_bar, &format!("frame {f}: "))?;
-        let look = match args.exposure {
-            Some(ev) => Look::Exposure(Some(ev)),
-            None => Look::Tone(settings.tone),
-        };
         let fstem = numbered(stem, f);
         let written = write_render(scene, &fstem, &settings, &result, look, args.aov)?;
         let line = summary_line(scene, &settings, &result, &fstem, &written.look);

@@ -1,0 +1,393 @@
+//! Partial films: a range of every pixel's samples rendered on its own (on another machine),
+//! written to a file, and merged exactly.
+//!
+//! Every sample's random numbers depend only on (seed, pixel, sample index) ([`crate::rng`]),
+//! so the sample range `first..end` of a uniform render can be taken anywhere. Its
+//! [`Film`] starts each pixel at index `first` ([`Film::starting_at`]), and because the film's
+//! sums are exact ([`crate::film::ExactSum`]), [`merge_parts`] of parts that cover `0..N`
+//! gives a film whose image is bit-identical to a single render of N samples per pixel.
+//!
+//! # File layout (OpenEXR, one part, ZIP-compressed, version 1)
+//! - `R`, `G`, `B` (f32): the part's own mean radiance, W·sr⁻¹·m⁻², so that any EXR viewer shows
+//!   a noisy preview of the part;
+//! - `spp` (u32): samples per pixel in the part;
+//! - the exact sums, each an f64 pair (hi, lo) in its canonical form
+//!   ([`crate::film::ExactSum::normalized`]), stored as the IEEE-754 bit patterns split in
+//!   32-bit words: channel `Film.S.hi0` holds the low word of `hi`, `Film.S.hi1` the high word,
+//!   `Film.S.lo0` and `Film.S.lo1` those of `lo` (all u32), for S in `EvenR`, `EvenG`, `EvenB`
+//!   (samples with even index), `OddR`, `OddG`, `OddB` (odd index) and `Y2` (Σ Y²);
+//! - header attributes: `alephPartialFilm` = `1` (the layout version), `alephSamples` =
+//!   `FIRST..END` (the sample indices every pixel holds), `alephPart` = `I/K` (part I of K,
+//!   from 1), `alephRecipe` (an opaque text that parts of one render share; the CLI stores the
+//!   render's arguments there) and `radianceUnits`.
+
+use crate::film::{ExactRgb, ExactSum, Film, PixelStats};
+use crate::integrator::{Integrator, Strategy};
+use crate::output::{AtomicOutputs, ChannelData, OutputError, write_exr};
+use crate::render::{RenderStats, render_counts};
+use crate::scene::Scene;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Layout version written in `alephPartialFilm`.
+pub const FORMAT_VERSION: &str = "1";
+
+/// Names of the exact sums, in file order.
+const SUMS: [&str; 7] = ["EvenR", "EvenG", "EvenB", "OddR", "OddG", "OddB", "Y2"];
+
+/// A partial film and what it is part of.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartialFilm {
+    /// The samples `first..end` of every pixel.
+    pub film: Film,
+    /// First sample index held.
+    pub first: u32,
+    /// One past the last sample index held.
+    pub end: u32,
+    /// Part number, from 1.
+    pub index: u32,
+    /// Number of parts of the render.
+    pub count: u32,
+    /// What the parts of one render share (the CLI: its arguments).
+    pub recipe: String,
+}
+
+/// `STEM.part-I-of-K.exr`: where part `index` of `count` of the render `STEM` goes.
+pub fn part_path(stem: &Path, index: u32, count: u32) -> PathBuf {
+    crate::deliver::with_ext(stem, &format!("part-{index}-of-{count}.exr"))
+}
+
+/// The sample range of part `index` (from 1) of `count` of an `spp`-sample render:
+/// `(index − 1)·spp/count .. index·spp/count`, so that the parts tile `0..spp`.
+///
+/// # Panics
+/// If `index` is 0 or above `count`.
+pub fn part_range(spp: u32, index: u32, count: u32) -> (u32, u32) {
+    assert!(index >= 1 && index <= count, "part {index} of {count}");
+    let at = |i: u32| (spp as u64 * i as u64 / count as u64) as u32;
+    (at(index - 1), at(index))
+}
+
+/// Renders part `index` (from 1) of `count` of a uniform render of `spp` samples per pixel of
+/// `scene`'s current frame: the samples [`part_range`] of every pixel, with the same integrator
+/// and random streams as [`crate::adaptive::render_adaptive`]'s uniform sampler. `progress`
+/// gets the samples of each finished row.
+///
+/// # Panics
+/// If `index` is 0 or above `count`, or `count` exceeds `spp` (a part would be empty).
+pub fn render_part(
+    scene: &Scene,
+    spp: u32,
+    index: u32,
+    count: u32,
+    recipe: String,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (PartialFilm, RenderStats) {
+    assert!(count <= spp, "{count} parts of {spp} samples");
+    let (first, end) = part_range(spp, index, count);
+    let integrator = Integrator {
+        max_depth: scene.settings.max_depth,
+        strategy: Strategy::Mis,
+    };
+    let mut film = Film::starting_at(scene.camera.width, scene.camera.height, first);
+    let counts = vec![end - first; film.len()];
+    let stats = render_counts(scene, &integrator, &mut film, &counts, progress);
+    let part = PartialFilm {
+        film,
+        first,
+        end,
+        index,
+        count,
+        recipe,
+    };
+    (part, stats)
+}
+
+/// Errors reading or merging partial films; each names the file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PartialError {
+    /// The file could not be read or is not a partial film.
+    #[error("{}: {message}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The parts do not make up one render.
+    #[error("{}: {message}", path.display())]
+    Mismatch {
+        /// The file that does not fit.
+        path: PathBuf,
+        /// What does not fit.
+        message: String,
+    },
+    /// No parts were given.
+    #[error("no partial films to merge")]
+    Empty,
+    /// Writing failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+/// The f64 bit pattern as (low, high) 32-bit words.
+fn words(v: f64) -> (u32, u32) {
+    let b = v.to_bits();
+    (b as u32, (b >> 32) as u32)
+}
+
+fn from_words(lo: u32, hi: u32) -> f64 {
+    f64::from_bits((hi as u64) << 32 | lo as u64)
+}
+
+/// The sums of a pixel in file order.
+fn sums(p: &PixelStats) -> [ExactSum; 7] {
+    let (e, o) = (p.sum_even.0, p.sum_odd.0);
+    [e[0], e[1], e[2], o[0], o[1], o[2], p.sum_lum2]
+}
+
+/// Writes `part` to `path` (staged and renamed into place).
+///
+/// # Errors
+/// [`PartialError::Output`] naming the file; nothing is left at `path` then.
+///
+/// # Panics
+/// If a pixel's samples are not `part.first..part.end`.
+pub fn write_partial(path: &Path, part: &PartialFilm) -> Result<(), PartialError> {
+    let f = &part.film;
+    assert!(
+        f.pixels
+            .iter()
+            .all(|p| p.first == part.first && p.n == part.end)
+    );
+    let mut extra = vec![("spp".to_string(), ChannelData::U32(f.spp()))];
+    for (k, name) in SUMS.iter().enumerate() {
+        let pairs: Vec<(f64, f64)> = f
+            .pixels
+            .iter()
+            .map(|p| sums(p)[k].normalized().parts())
+            .collect();
+        for (half, pick) in [("hi", 0usize), ("lo", 1)] {
+            let value = |pr: &(f64, f64)| if pick == 0 { pr.0 } else { pr.1 };
+            let w0 = pairs.iter().map(|pr| words(value(pr)).0).collect();
+            let w1 = pairs.iter().map(|pr| words(value(pr)).1).collect();
+            extra.push((format!("Film.{name}.{half}0"), ChannelData::U32(w0)));
+            extra.push((format!("Film.{name}.{half}1"), ChannelData::U32(w1)));
+        }
+    }
+    let attributes = vec![
+        ("alephPartialFilm".to_string(), FORMAT_VERSION.to_string()),
+        (
+            "alephSamples".to_string(),
+            format!("{}..{}", part.first, part.end),
+        ),
+        (
+            "alephPart".to_string(),
+            format!("{}/{}", part.index, part.count),
+        ),
+        ("alephRecipe".to_string(), part.recipe.clone()),
+        (
+            "radianceUnits".to_string(),
+            "W.sr^-1.m^-2 (linear Rec.709 RGB); mean of this part's samples".to_string(),
+        ),
+    ];
+    let rgb = f.mean_rgb();
+    let mut out = AtomicOutputs::new();
+    out.stage(path, |w| {
+        write_exr(w, path, f.width, f.height, &rgb, &extra, &attributes)
+    })?;
+    out.commit()?;
+    Ok(())
+}
+
+/// Parses `A..B` / `I/K` attributes.
+fn pair(text: &str, sep: &str) -> Option<(u32, u32)> {
+    let (a, b) = text.split_once(sep)?;
+    Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
+}
+
+/// Reads a partial film written by [`write_partial`].
+///
+/// # Errors
+/// [`PartialError::Read`] naming the file: unreadable, not a partial film, another layout
+/// version, or channels missing or of the wrong type.
+pub fn read_partial(path: &Path) -> Result<PartialFilm, PartialError> {
+    let err = |message: String| PartialError::Read {
+        path: path.to_path_buf(),
+        message,
+    };
+    crate::imageio::read_exr_channels_raw(path)
+        .map_err(|e| match e {
+            crate::imageio::ImageError::Read { message, .. } => {
+                err(format!("cannot read: {message}"))
+            }
+            other => err(other.to_string()),
+        })
+        .and_then(|(w, h, channels, attrs)| {
+            decode(w, h, &channels, &attrs).map_err(|m| err(format!("not a partial film: {m}")))
+        })
+}
+
+/// Builds a [`PartialFilm`] from an EXR's u32 channels and text attributes.
+fn decode(
+    w: u32,
+    h: u32,
+    channels: &HashMap<String, Vec<u32>>,
+    attrs: &HashMap<String, String>,
+) -> Result<PartialFilm, String> {
+    let attr = |k: &str| attrs.get(k).ok_or_else(|| format!("no {k} attribute"));
+    let version = attr("alephPartialFilm")?;
+    if version != FORMAT_VERSION {
+        return Err(format!(
+            "layout version {version}, this aleph reads {FORMAT_VERSION}"
+        ));
+    }
+    let (first, end) = pair(attr("alephSamples")?, "..")
+        .filter(|(a, b)| a < b)
+        .ok_or("alephSamples is not FIRST..END")?;
+    let (index, count) = pair(attr("alephPart")?, "/")
+        .filter(|&(i, k)| i >= 1 && i <= k)
+        .ok_or("alephPart is not I/K with 1 ≤ I ≤ K")?;
+    let channel = |name: &str| {
+        channels
+            .get(name)
+            .ok_or_else(|| format!("no u32 channel {name}"))
+    };
+    let mut film = Film::starting_at(w, h, first);
+    for (k, name) in SUMS.iter().enumerate() {
+        let c = |half: &str, word: u32| channel(&format!("Film.{name}.{half}{word}"));
+        let (h0, h1, l0, l1) = (c("hi", 0)?, c("hi", 1)?, c("lo", 0)?, c("lo", 1)?);
+        for (i, p) in film.pixels.iter_mut().enumerate() {
+            let s = ExactSum::from_parts(from_words(h0[i], h1[i]), from_words(l0[i], l1[i]));
+            match k {
+                0..=2 => p.sum_even.0[k] = s,
+                3..=5 => p.sum_odd.0[k - 3] = s,
+                _ => p.sum_lum2 = s,
+            }
+        }
+    }
+    for p in &mut film.pixels {
+        p.n = end;
+    }
+    let spp = channel("spp")?;
+    if spp.iter().any(|&n| n != end - first) {
+        return Err(format!(
+            "the spp channel disagrees with samples {first}..{end}"
+        ));
+    }
+    let finite = |s: &ExactRgb| {
+        s.0.iter()
+            .all(|v| v.value().is_finite() && v.value() >= 0.0)
+    };
+    if !film
+        .pixels
+        .iter()
+        .all(|p| finite(&p.sum_even) && finite(&p.sum_odd))
+    {
+        return Err("a sum is negative, NaN or infinite".into());
+    }
+    Ok(PartialFilm {
+        film,
+        first,
+        end,
+        index,
+        count,
+        recipe: attr("alephRecipe")?.clone(),
+    })
+}
+
+/// Merges the parts of one render, read from `paths`: they must share their recipe, size and
+/// part count, and hold disjoint sample ranges that together cover `0..N` with every part
+/// `1..=K` present once. Returns the film of all N samples (bit-identical to a single render's
+/// image, see [`Film::merge`]) and the recipe.
+///
+/// # Errors
+/// [`PartialError`] naming the file that cannot be read or does not fit.
+pub fn merge_parts(paths: &[PathBuf]) -> Result<(Film, String), PartialError> {
+    let mut parts = Vec::new();
+    for p in paths {
+        parts.push((p.clone(), read_partial(p)?));
+    }
+    let (path0, first) = parts.first().ok_or(PartialError::Empty)?;
+    let mismatch = |path: &Path, message: String| PartialError::Mismatch {
+        path: path.to_path_buf(),
+        message,
+    };
+    for (path, p) in &parts[1..] {
+        if p.recipe != first.recipe {
+            return Err(mismatch(
+                path,
+                format!(
+                    "a part of another render than {} (recipes differ:\n  {}\n  {})",
+                    path0.display(),
+                    first.recipe,
+                    p.recipe
+                ),
+            ));
+        }
+        if (p.film.width, p.film.height, p.count)
+            != (first.film.width, first.film.height, first.count)
+        {
+            return Err(mismatch(
+                path,
+                format!(
+                    "{}×{} part of {}, but {} is {}×{} part of {}",
+                    p.film.width,
+                    p.film.height,
+                    p.count,
+                    path0.display(),
+                    first.film.width,
+                    first.film.height,
+                    first.count
+                ),
+            ));
+        }
+    }
+    parts.sort_by_key(|(_, p)| p.first);
+    check_coverage(&parts)?;
+    let recipe = parts[0].1.recipe.clone();
+    let mut film = Film::starting_at(parts[0].1.film.width, parts[0].1.film.height, 0);
+    for (path, p) in &parts {
+        film.merge(&p.film).map_err(|m| mismatch(path, m))?;
+    }
+    Ok((film, recipe))
+}
+
+/// Parts sorted by first sample must run 0..N without gap or overlap, one of each index.
+fn check_coverage(parts: &[(PathBuf, PartialFilm)]) -> Result<(), PartialError> {
+    let mut next = 0;
+    let mut seen = vec![None::<&Path>; parts[0].1.count as usize];
+    for (path, p) in parts {
+        let slot = &mut seen[p.index as usize - 1];
+        if let Some(other) = slot {
+            return Err(PartialError::Mismatch {
+                path: path.clone(),
+                message: format!(
+                    "part {}/{} again (also {})",
+                    p.index,
+                    p.count,
+                    other.display()
+                ),
+            });
+        }
+        *slot = Some(path);
+        if p.first != next {
+            return Err(PartialError::Mismatch {
+                path: path.clone(),
+                message: format!(
+                    "holds samples {}..{}, but the parts before it end at sample {next}",
+                    p.first, p.end
+                ),
+            });
+        }
+        next = p.end;
+    }
+    if let Some(i) = seen.iter().position(Option::is_none) {
+        return Err(PartialError::Mismatch {
+            path: parts[0].0.clone(),
+            message: format!("part {}/{} is missing", i + 1, parts[0].1.count),
+        });
+    }
+    Ok(())
+}
