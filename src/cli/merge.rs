@@ -143,6 +143,17 @@ pub struct MergeArgs {
     threads: Option<usize>,
 }
 
+impl MergeArgs {
+    /// Merge `parts` into `output` with `threads` workers.
+    pub(super) fn new(parts: Vec<PathBuf>, output: PathBuf, threads: Option<usize>) -> MergeArgs {
+        MergeArgs {
+            parts,
+            output,
+            threads,
+        }
+    }
+}
+
 /// The output stem of `-o`: an `.exr`/`.png` extension is dropped, as `render` does.
 fn output_stem(o: &Path) -> PathBuf {
     match o

@@ -2,6 +2,7 @@
 //! exit with status 2 (status 1 is reserved for "a visible difference was found" by `diff`).
 
 mod diff;
+mod farm;
 mod merge;
 mod render;
 mod sequence;
@@ -35,6 +36,9 @@ enum Command {
     /// Sum the partial films of one render (`render --part I/K`, from several machines) into the
     /// files the render writes on one machine, bit for bit.
     Merge(merge::MergeArgs),
+    /// Split a render across a cluster: Slurm job arrays (frames, sample parts), the tasks
+    /// they run, and the job that merges the results.
+    Farm(farm::FarmArgs),
 }
 
 /// The command line after the subcommand `name` (for the record partial films keep).
@@ -57,6 +61,7 @@ pub fn main() -> ExitCode {
             render::run(args)
         }
         Command::Merge(args) => merge::run(args),
+        Command::Farm(args) => farm::run(args),
         Command::Diff(args) => diff::run(args),
         Command::Tonemap(args) => tonemap::run(args),
         Command::Speedup(args) => speedup::run(args),

@@ -277,6 +277,10 @@ pub struct RenderArgs {
     /// The command line after `render`, as given (recorded in partial films).
     #[arg(skip)]
     pub(super) argv: Vec<String>,
+    /// Whether a sequence also writes OUT.preview.png and OUT.filmstrip.png (a farm task's
+    /// single frame does not: the finishing job writes them for the whole sequence).
+    #[arg(skip = true)]
+    pub(super) sequence_outputs: bool,
 }
 
 /// Parses `I/K` with 1 ≤ I ≤ K.

@@ -90,6 +90,9 @@ pub fn render_sequence(
     frame_bar.finish_and_clear();
     seq_bar.finish_and_clear();
 
+    if !args.sequence_outputs {
+        return Ok(ExitCode::SUCCESS);
+    }
     let (preview, strip) = write_sequence_outputs(stem, &displays, w, h, anim.fps)?;
     let wall = start.elapsed().as_secs_f64();
     println!(
@@ -110,7 +113,7 @@ pub fn render_sequence(
 }
 
 /// Writes `STEM.preview.png` (animated PNG at `fps`) and `STEM.filmstrip.png`, together.
-fn write_sequence_outputs(
+pub(super) fn write_sequence_outputs(
     stem: &Path,
     displays: &[(i64, Vec<u8>)],
     w: usize,

@@ -1,0 +1,625 @@
+//! `aleph farm`: a render split into tasks for a cluster's own scheduler (Slurm), with the
+//! results equal to a single machine's.
+//!
+//! `farm slurm` checks the render, writes `DIR/farm.toml` (the manifest: what each task
+//! renders), `DIR/render.sbatch` (a job array, one task per frame, or per frame and sample part)
+//! and `DIR/finish.sbatch` (merges sample parts and writes the sequence's preview), and with
+//! `--submit` hands both to `sbatch`, the second depending on the first. Each task runs
+//! `aleph farm task DIR --index I`, which skips work whose outputs exist (a requeued or rerun
+//! task) and writes through temporary files (a failed task leaves nothing). `aleph farm finish
+//! DIR` then merges and tone-maps. Nothing in the tasks depends on Slurm: any scheduler that
+//! runs `farm task` for every index and then `farm finish` gives the same files (docs/farm.md
+//! shows a Kubernetes Indexed Job).
+
+use super::merge::{self, MergeArgs};
+use super::render::{self, RenderArgs, SamplerArg, default_scene, parse_frames, with_ext};
+use super::sequence::{numbered, write_sequence_outputs};
+use aleph::partial::part_path;
+use aleph::scene::Scene;
+use anyhow::{Context, bail};
+use clap::{Args, Parser, Subcommand};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
+
+#[derive(Args, Debug)]
+pub struct FarmArgs {
+    #[command(subcommand)]
+    command: FarmCommand,
+}
+
+#[derive(Subcommand, Debug)]
+enum FarmCommand {
+    /// Write (and with --submit, submit) a Slurm job array that renders SCENE's frames or
+    /// sample parts, and a dependent job that merges them.
+    Slurm(SlurmArgs),
+    /// Run task INDEX of a farm directory (what each array task runs).
+    Task(TaskArgs),
+    /// Merge the sample parts and write the sequence's preview (the job after the array).
+    Finish(FinishArgs),
+}
+
+#[derive(Args, Debug)]
+struct SlurmArgs {
+    /// Scene file (default: the bundled Cornell box).
+    scene: Option<PathBuf>,
+    /// The farm directory: manifest, batch scripts, logs and outputs.
+    #[arg(short, long, value_name = "DIR")]
+    output: PathBuf,
+    /// Frames of an animated scene, FIRST-LAST (default: the scene's whole range).
+    #[arg(long, value_name = "A-B", value_parser = parse_frames)]
+    frames: Option<(i64, i64)>,
+    /// Split every frame's samples into K parts on K tasks (uniform sampler).
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    split_samples: u32,
+    /// Submit the jobs with sbatch.
+    #[arg(long)]
+    submit: bool,
+    /// With --submit: wait until the finishing job has ended (sbatch --wait) and exit with
+    /// its status.
+    #[arg(long, requires = "submit")]
+    wait: bool,
+    /// Slurm partition (#SBATCH --partition).
+    #[arg(long, value_name = "NAME")]
+    partition: Option<String>,
+    /// CPUs per task (#SBATCH --cpus-per-task); each task renders with that many threads.
+    #[arg(long, value_name = "N")]
+    cpus_per_task: Option<u32>,
+    /// Memory per task (#SBATCH --mem), e.g. 4G.
+    #[arg(long, value_name = "SIZE")]
+    mem: Option<String>,
+    /// Time limit per task (#SBATCH --time), e.g. 01:00:00.
+    #[arg(long, value_name = "LIMIT")]
+    time_limit: Option<String>,
+    /// Any further #SBATCH option for both jobs, e.g. --sbatch=--account=lab (repeatable).
+    #[arg(long = "sbatch", value_name = "OPTION", allow_hyphen_values = true)]
+    sbatch: Vec<String>,
+    /// The aleph binary the tasks run (default: this one; it must be reachable from the
+    /// compute nodes, as must the scene and DIR).
+    #[arg(long, value_name = "PATH")]
+    aleph: Option<PathBuf>,
+    /// Render options for every task (as for `aleph render`), after `--`.
+    #[arg(last = true, value_name = "RENDER OPTIONS")]
+    render: Vec<String>,
+}
+
+#[derive(Args, Debug)]
+struct TaskArgs {
+    /// The farm directory.
+    dir: PathBuf,
+    /// Task index, from 0 (Slurm's $SLURM_ARRAY_TASK_ID).
+    #[arg(long, value_name = "I")]
+    index: usize,
+}
+
+#[derive(Args, Debug)]
+struct FinishArgs {
+    /// The farm directory.
+    dir: PathBuf,
+}
+
+/// `DIR/farm.toml`: what the tasks render.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+struct Manifest {
+    /// The aleph binary the batch scripts run.
+    aleph: PathBuf,
+    /// The scene (absolute).
+    scene: PathBuf,
+    /// The working directory of the render options' relative paths.
+    cwd: PathBuf,
+    /// Output stem inside the farm directory.
+    stem: String,
+    /// Frames `[first, last]` of an animated scene; none for a still.
+    frames: Option<[i64; 2]>,
+    /// Sample parts per frame.
+    split: u32,
+    /// Render options of every task.
+    render: Vec<String>,
+}
+
+/// What one task renders.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Task {
+    frame: Option<i64>,
+    part: Option<(u32, u32)>,
+}
+
+impl Manifest {
+    fn frame_list(&self) -> Vec<Option<i64>> {
+        match self.frames {
+            Some([a, b]) => (a..=b).map(Some).collect(),
+            None => vec![None],
+        }
+    }
+
+    /// Tasks in index order: frames outer, parts inner.
+    fn tasks(&self) -> Vec<Task> {
+        let k = self.split;
+        self.frame_list()
+            .into_iter()
+            .flat_map(|frame| {
+                (1..=k).map(move |p| Task {
+                    frame,
+                    part: (k > 1).then_some((p, k)),
+                })
+            })
+            .collect()
+    }
+
+    fn read(dir: &Path) -> anyhow::Result<Manifest> {
+        let path = dir.join("farm.toml");
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("{}: cannot read the farm manifest", path.display()))?;
+        toml::from_str(&text).with_context(|| format!("{}: not a farm manifest", path.display()))
+    }
+
+    /// The stem of a frame's outputs (`DIR/STEM` or `DIR/STEM.NNNN`).
+    fn frame_stem(&self, dir: &Path, frame: Option<i64>) -> PathBuf {
+        let stem = dir.join(&self.stem);
+        match frame {
+            Some(f) => numbered(&stem, f),
+            None => stem,
+        }
+    }
+
+    /// The render command line (after `render`) of a task.
+    fn task_argv(&self, dir: &Path, t: Task) -> Vec<String> {
+        let mut argv = vec![self.scene.display().to_string()];
+        argv.extend(self.render.iter().cloned());
+        if let Some(f) = t.frame {
+            argv.extend(["--frame".into(), f.to_string()]);
+        }
+        if let Some((p, k)) = t.part {
+            argv.extend(["--part".into(), format!("{p}/{k}")]);
+        }
+        argv.extend(["-o".into(), dir.join(&self.stem).display().to_string()]);
+        argv
+    }
+
+    /// Whether a task's outputs exist, or for a part, its frame was already merged.
+    fn task_done(&self, dir: &Path, t: Task) -> bool {
+        let done = |t: Task| self.task_outputs(dir, t).iter().all(|p| p.exists());
+        done(t) || (t.part.is_some() && done(Task { part: None, ..t }))
+    }
+
+    /// The files a task leaves when done.
+    fn task_outputs(&self, dir: &Path, t: Task) -> Vec<PathBuf> {
+        let stem = self.frame_stem(dir, t.frame);
+        match t.part {
+            Some((p, k)) => vec![part_path(&stem, p, k)],
+            None => vec![with_ext(&stem, "exr"), with_ext(&stem, "png")],
+        }
+    }
+}
+
+/// Parses a render command line (after `render`).
+#[derive(Parser, Debug)]
+#[command(name = "aleph render", no_binary_name = true)]
+struct RenderLine {
+    #[command(flatten)]
+    args: RenderArgs,
+}
+
+fn parse_render(argv: &[String]) -> anyhow::Result<RenderArgs> {
+    let mut line = RenderLine::try_parse_from(argv).context("the render options")?;
+    line.args.argv = argv.to_vec();
+    Ok(line.args)
+}
+
+/// Seconds since the Unix epoch.
+fn now_s() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0)
+}
+
+pub fn run(args: FarmArgs) -> anyhow::Result<ExitCode> {
+    match args.command {
+        FarmCommand::Slurm(a) => slurm(a),
+        FarmCommand::Task(a) => task(a),
+        FarmCommand::Finish(a) => finish(a),
+    }
+}
+
+/// Checks the render the manifest describes before anything is queued.
+fn check_render(m: &Manifest) -> anyhow::Result<()> {
+    for opt in ["-o", "--output", "--frames", "--frame", "--part"] {
+        if m.render
+            .iter()
+            .any(|a| a == opt || a.starts_with(&format!("{opt}=")))
+        {
+            bail!("{opt} is the farm's to set: give the farm's own options before `--`");
+        }
+    }
+    let probe = Manifest {
+        split: 1,
+        ..m.clone()
+    };
+    let args = parse_render(&probe.task_argv(
+        Path::new("."),
+        Task {
+            frame: None,
+            part: None,
+        },
+    ))?;
+    if m.split > 1 && !matches!(args.sampler, SamplerArg::Uniform) {
+        bail!(
+            "--split-samples splits a uniform render's samples: add `-- --sampler uniform`; the \
+             perceptual and variance samplers split by frames (docs/farm.md)"
+        );
+    }
+    let scene = Scene::load_description(render::scene_description(&args, &m.scene)?)?;
+    let settings = args.sampling.settings(
+        args.sampler.into(),
+        args.spp,
+        scene.settings.spp,
+        Default::default(),
+    )?;
+    if m.split > 1 && m.split > settings.uniform_total_spp() {
+        bail!(
+            "--split-samples {}: more parts than the {} samples per pixel",
+            m.split,
+            settings.uniform_total_spp()
+        );
+    }
+    match (m.frames, scene.animation) {
+        (Some([a, b]), Some(anim)) if a < anim.frame_start || b > anim.frame_end => bail!(
+            "{}: frames {a}-{b} are outside the scene's {}-{}",
+            m.scene.display(),
+            anim.frame_start,
+            anim.frame_end
+        ),
+        (Some(_), None) => bail!(
+            "{}: --frames needs an animated scene (this one has no [animation] table)",
+            m.scene.display()
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// Shell-quotes a word for a batch script.
+fn sh(word: &str) -> String {
+    format!("'{}'", word.replace('\'', r"'\''"))
+}
+
+/// The two batch scripts.
+fn batch_scripts(m: &Manifest, dir: &Path, a: &SlurmArgs, n_tasks: usize) -> (String, String) {
+    let mut common = Vec::new();
+    if let Some(p) = &a.partition {
+        common.push(format!("--partition={p}"));
+    }
+    if let Some(t) = &a.time_limit {
+        common.push(format!("--time={t}"));
+    }
+    if let Some(mem) = &a.mem {
+        common.push(format!("--mem={mem}"));
+    }
+    if let Some(c) = a.cpus_per_task {
+        common.push(format!("--cpus-per-task={c}"));
+    }
+    common.extend(a.sbatch.iter().cloned());
+    let header = |name: &str, extra: &[String]| {
+        let mut s = "#!/bin/bash\n".to_string();
+        s += &format!(
+            "# Written by `aleph farm slurm` for {}.\n",
+            m.scene.display()
+        );
+        s += &format!("#SBATCH --job-name=aleph-{name}-{}\n", m.stem);
+        for o in extra.iter().chain(&common) {
+            s += &format!("#SBATCH {o}\n");
+        }
+        s
+    };
+    let logs = dir.join("logs");
+    let render = header(
+        "render",
+        &[
+            format!("--array=0-{}", n_tasks - 1),
+            "--requeue".into(),
+            "--open-mode=append".into(),
+            format!("--output={}", logs.join("task-%a.out").display()),
+        ],
+    ) + &format!(
+        "# One task per frame{}; a task whose outputs exist does nothing.\n\
+         exec {} farm task {} --index \"$SLURM_ARRAY_TASK_ID\"\n",
+        if m.split > 1 { " and sample part" } else { "" },
+        sh(&m.aleph.display().to_string()),
+        sh(&dir.display().to_string()),
+    );
+    let finish = header(
+        "finish",
+        &[format!("--output={}", logs.join("finish-%j.out").display())],
+    ) + &format!(
+        "exec {} farm finish {}\n",
+        sh(&m.aleph.display().to_string()),
+        sh(&dir.display().to_string()),
+    );
+    (render, finish)
+}
+
+fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
+    if a.split_samples == 0 {
+        bail!("--split-samples must be at least 1");
+    }
+    let absolute = |p: &Path| std::path::absolute(p).with_context(|| p.display().to_string());
+    let scene = absolute(&a.scene.clone().unwrap_or_else(default_scene))?;
+    let dir = absolute(&a.output)?;
+    let stem = scene
+        .file_stem()
+        .filter(|s| *s != "scene")
+        .or_else(|| scene.parent().and_then(|p| p.file_name()))
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_else(|| "render".into());
+    let aleph = match &a.aleph {
+        Some(p) => absolute(p)?,
+        None => std::env::current_exe().context("the aleph binary's path")?,
+    };
+    let desc = aleph::scene::SceneDescription::read(&scene)?;
+    let frames = match (a.frames, &desc.animation) {
+        (Some((x, y)), _) => Some([x, y]),
+        (None, Some(anim)) => Some(anim.frames),
+        (None, None) => None,
+    };
+    let m = Manifest {
+        aleph,
+        scene,
+        cwd: std::env::current_dir().context("the working directory")?,
+        stem,
+        frames,
+        split: a.split_samples,
+        render: a.render.clone(),
+    };
+    check_render(&m)?;
+    let n_tasks = m.tasks().len();
+    std::fs::create_dir_all(dir.join("logs"))
+        .with_context(|| format!("{}: cannot create the farm directory", dir.display()))?;
+    let (render_sh, finish_sh) = batch_scripts(&m, &dir, &a, n_tasks);
+    let mut out = aleph::output::AtomicOutputs::new();
+    let manifest = toml::to_string(&m).context("writing the manifest")?;
+    for (name, text) in [
+        ("farm.toml", manifest),
+        ("render.sbatch", render_sh),
+        ("finish.sbatch", finish_sh),
+    ] {
+        let path = dir.join(name);
+        out.stage(&path, |w| {
+            use std::io::Write;
+            w.write_all(text.as_bytes())
+                .map_err(|source| aleph::output::OutputError::Io {
+                    path: path.clone(),
+                    source,
+                })
+        })?;
+    }
+    out.commit()?;
+    println!(
+        "{}: {n_tasks} tasks ({} frames × {} parts) -> {}/render.sbatch, finish.sbatch",
+        m.scene.display(),
+        m.frame_list().len(),
+        m.split,
+        dir.display()
+    );
+    if !a.submit {
+        println!(
+            "submit with: jid=$(sbatch --parsable {0}/render.sbatch) && sbatch \
+             --dependency=afterok:${{jid%%;*}} {0}/finish.sbatch",
+            dir.display()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    submit(&dir, a.wait)
+}
+
+/// Runs sbatch with `args`; returns its stdout.
+fn sbatch(args: &[String]) -> anyhow::Result<String> {
+    let out = Command::new("sbatch")
+        .args(args)
+        .output()
+        .context("cannot run sbatch (is Slurm installed and on PATH?)")?;
+    if !out.status.success() {
+        bail!(
+            "sbatch {} failed ({}): {}",
+            args.join(" "),
+            out.status,
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).trim().to_string())
+}
+
+/// Submits the array, then the finishing job after it.
+fn submit(dir: &Path, wait: bool) -> anyhow::Result<ExitCode> {
+    std::fs::write(dir.join("logs/submitted"), format!("{:.3}\n", now_s()))
+        .with_context(|| format!("{}: cannot record the submission", dir.display()))?;
+    let d = |n: &str| dir.join(n).display().to_string();
+    let out = sbatch(&["--parsable".into(), d("render.sbatch")])?;
+    let array = out.split(';').next().unwrap_or_default().to_string();
+    println!("submitted job array {array}");
+    let mut args = vec![
+        "--parsable".into(),
+        format!("--dependency=afterok:{array}"),
+        "--kill-on-invalid-dep=yes".into(),
+    ];
+    if wait {
+        args.push("--wait".into());
+    }
+    args.push(d("finish.sbatch"));
+    let out = sbatch(&args)?;
+    println!(
+        "submitted finishing job {}{}",
+        out.split(';').next().unwrap_or_default(),
+        if wait { ", which has ended" } else { "" }
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Threads a Slurm task was given, if any.
+fn slurm_threads() -> Option<usize> {
+    std::env::var("SLURM_CPUS_PER_TASK")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|&n| n > 0)
+}
+
+fn task(a: TaskArgs) -> anyhow::Result<ExitCode> {
+    let dir = std::path::absolute(&a.dir).context("the farm directory")?;
+    let m = Manifest::read(&dir)?;
+    let tasks = m.tasks();
+    let Some(&t) = tasks.get(a.index) else {
+        bail!(
+            "{}: task {} does not exist (the farm has tasks 0-{})",
+            dir.join("farm.toml").display(),
+            a.index,
+            tasks.len().saturating_sub(1)
+        );
+    };
+    let what = match (t.frame, t.part) {
+        (Some(f), Some((p, k))) => format!("frame {f}, part {p}/{k}"),
+        (Some(f), None) => format!("frame {f}"),
+        (None, Some((p, k))) => format!("part {p}/{k}"),
+        (None, None) => "the image".into(),
+    };
+    if m.task_done(&dir, t) {
+        println!("task {}: {what} already rendered, skipped", a.index);
+        return Ok(ExitCode::SUCCESS);
+    }
+    let start = now_s();
+    std::env::set_current_dir(&m.cwd)
+        .with_context(|| format!("the render's working directory {}", m.cwd.display()))?;
+    let mut args = parse_render(&m.task_argv(&dir, t))?;
+    args.sequence_outputs = false;
+    if args.threads.is_none() {
+        args.threads = slurm_threads();
+    }
+    let code = render::run(args)?;
+    let end = now_s();
+    let timing = dir.join(format!("logs/task-{}.time", a.index));
+    std::fs::write(&timing, format!("{start:.3} {end:.3}\n"))
+        .with_context(|| format!("{}: cannot write", timing.display()))?;
+    println!("task {}: {what} rendered in {:.2} s", a.index, end - start);
+    Ok(code)
+}
+
+/// Start and end times that the tasks recorded.
+fn task_times(dir: &Path, n: usize) -> Vec<(f64, f64)> {
+    (0..n)
+        .filter_map(|i| std::fs::read_to_string(dir.join(format!("logs/task-{i}.time"))).ok())
+        .filter_map(|s| {
+            let mut it = s.split_whitespace().map(|v| v.parse::<f64>().ok());
+            Some((it.next()??, it.next()??))
+        })
+        .collect()
+}
+
+fn finish(a: FinishArgs) -> anyhow::Result<ExitCode> {
+    let start = now_s();
+    let clock = Instant::now();
+    let dir = std::path::absolute(&a.dir).context("the farm directory")?;
+    let m = Manifest::read(&dir)?;
+    let tasks = m.tasks();
+    let missing: Vec<String> = tasks
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| !m.task_done(&dir, **t))
+        .map(|(i, _)| i.to_string())
+        .collect();
+    if !missing.is_empty() {
+        bail!(
+            "{}: tasks {} have no outputs yet",
+            dir.display(),
+            missing.join(", ")
+        );
+    }
+    let merge_start = Instant::now();
+    if m.split > 1 {
+        merge_frames(&m, &dir)?;
+    }
+    let merge_s = merge_start.elapsed().as_secs_f64();
+    if let Some([first, last]) = m.frames {
+        let stem = dir.join(&m.stem);
+        write_preview(&m, &stem, first, last)?;
+    }
+    report(&dir, tasks.len(), start, merge_s, clock);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Merges every frame's parts into its outputs, then removes the parts.
+fn merge_frames(m: &Manifest, dir: &Path) -> anyhow::Result<()> {
+    for frame in m.frame_list() {
+        let whole = Task { frame, part: None };
+        if m.task_outputs(dir, whole).iter().all(|p| p.exists()) {
+            continue;
+        }
+        let stem = m.frame_stem(dir, frame);
+        let parts: Vec<PathBuf> = (1..=m.split)
+            .map(|p| part_path(&stem, p, m.split))
+            .collect();
+        merge::run(MergeArgs::new(
+            parts.clone(),
+            dir.join(&m.stem),
+            slurm_threads(),
+        ))?;
+        for p in parts {
+            std::fs::remove_file(&p).with_context(|| format!("{}: cannot remove", p.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes the sequence's animated preview and filmstrip from its frames' PNGs.
+fn write_preview(m: &Manifest, stem: &Path, first: i64, last: i64) -> anyhow::Result<()> {
+    let mut displays = Vec::new();
+    let (mut w, mut h) = (0, 0);
+    for f in first..=last {
+        let png = with_ext(&numbered(stem, f), "png");
+        let img = image::open(&png)
+            .with_context(|| format!("{}: cannot read", png.display()))?
+            .to_rgb8();
+        (w, h) = (img.width() as usize, img.height() as usize);
+        displays.push((f, img.into_raw()));
+    }
+    let scene = aleph::scene::SceneDescription::read(&m.scene)?;
+    let fps = scene
+        .animation
+        .map(|a| a.fps)
+        .context("the scene is not animated")?;
+    let (preview, strip) = write_sequence_outputs(stem, &displays, w, h, fps)?;
+    println!("{}, {}", preview.display(), strip.display());
+    Ok(())
+}
+
+/// Prints where the wall time went: queueing, rendering, merging.
+fn report(dir: &Path, n: usize, finish_start: f64, merge_s: f64, clock: Instant) {
+    let times = task_times(dir, n);
+    let submitted = std::fs::read_to_string(dir.join("logs/submitted"))
+        .ok()
+        .and_then(|s| s.trim().parse::<f64>().ok());
+    let first_start = times.iter().map(|t| t.0).fold(f64::INFINITY, f64::min);
+    let last_end = times.iter().map(|t| t.1).fold(f64::NEG_INFINITY, f64::max);
+    let busy: f64 = times.iter().map(|t| t.1 - t.0).sum();
+    let mut words = vec![format!("{} of {n} tasks timed", times.len())];
+    if let Some(s) = submitted.filter(|_| !times.is_empty()) {
+        words.push(format!(
+            "queued {:.2} s before the first task",
+            first_start - s
+        ));
+    }
+    if !times.is_empty() {
+        words.push(format!(
+            "rendering {:.2} s from first start to last end ({busy:.2} task-s)",
+            last_end - first_start
+        ));
+        words.push(format!(
+            "{:.2} s from the last task to this job",
+            finish_start - last_end
+        ));
+    }
+    words.push(format!("merging {merge_s:.2} s"));
+    words.push(format!("finishing {:.2} s", clock.elapsed().as_secs_f64()));
+    if let Some(s) = submitted {
+        words.push(format!("{:.2} s from submission", now_s() - s));
+    }
+    println!("{}: {}", dir.display(), words.join(", "));
+}
