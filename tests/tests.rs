@@ -8,6 +8,7 @@ mod animation;
 mod bad_input;
 mod determinism;
 mod diff;
+mod farm;
 mod furnace;
 mod fuzz;
 mod reference;

@@ -1,0 +1,311 @@
+//! Render farms: partial films merge into exactly the single-machine film; `aleph farm`'s batch
+//! scripts, run by hand as a scheduler would, write the same bytes as `aleph render`; reruns
+//! skip finished work; an interrupted task leaves nothing. The real Slurm run is in
+//! `tests/slurm.rs` (ignored here; `.ci/run` starts a cluster and runs it).
+
+use crate::util::{repo, tempdir};
+use aleph::adaptive::{AdaptiveSettings, SamplerKind, render_adaptive};
+use aleph::partial::{merge_parts, part_path, read_partial, render_part, write_partial};
+use aleph::scene::{Scene, SceneDescription};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn aleph(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap()
+}
+
+fn ok(out: &Output) -> String {
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{text}");
+    text
+}
+
+fn small_box(res: u32) -> Scene {
+    let mut d = SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
+    d.camera.resolution = [res, res];
+    Scene::load_description(d).unwrap()
+}
+
+/// The image bits of a film: every pixel's mean RGB as f64 bits, and its sample count.
+fn image_bits(f: &aleph::film::Film) -> Vec<(u64, u64, u64, u32)> {
+    f.pixels
+        .iter()
+        .map(|p| {
+            let m = p.mean();
+            (m.x.to_bits(), m.y.to_bits(), m.z.to_bits(), p.count())
+        })
+        .collect()
+}
+
+#[test]
+fn parts_merge_into_the_single_render_bit_for_bit() {
+    // The machinery end to end: parts rendered on their own, written, read back and merged in
+    // any order. (A plain f64 sum of this scene's samples happens not to round at 13 spp; the
+    // film's unit tests show sums that do, and that exact sums don't.)
+    let dir = tempdir();
+    let scene = small_box(24);
+    let spp = 13;
+    let settings = AdaptiveSettings {
+        sampler: SamplerKind::Uniform,
+        budget_spp: Some(spp as f64),
+        ..Default::default()
+    };
+    let single = render_adaptive(&scene, &settings, &|_| {}, &|_| {}).unwrap();
+    let stem = dir.path().join("box");
+    for k in [1u32, 2, 5] {
+        let paths: Vec<PathBuf> = (1..=k).map(|i| part_path(&stem, i, k)).collect();
+        // Written in reverse, merged in any order.
+        for i in (1..=k).rev() {
+            let (part, _) = render_part(&scene, spp, i, k, "r".into(), &|_| {});
+            write_partial(&paths[i as usize - 1], &part).unwrap();
+            assert_eq!(read_partial(&paths[i as usize - 1]).unwrap(), part);
+        }
+        let mut shuffled = paths.clone();
+        shuffled.rotate_left(1);
+        let (film, recipe) = merge_parts(&shuffled).unwrap();
+        assert_eq!(recipe, "r");
+        assert_eq!(image_bits(&film), image_bits(&single.film), "{k} parts");
+    }
+}
+
+#[test]
+fn merge_refuses_parts_that_do_not_make_one_render() {
+    let scene = small_box(8);
+    let dir = tempdir();
+    let write = |i: u32, k: u32, recipe: &str, name: &str| {
+        let (part, _) = render_part(&scene, 6, i, k, recipe.into(), &|_| {});
+        let p = dir.path().join(name);
+        write_partial(&p, &part).unwrap();
+        p
+    };
+    let a = write(1, 3, "r", "a.exr");
+    let b = write(2, 3, "r", "b.exr");
+    let c = write(3, 3, "r", "c.exr");
+    let other = write(2, 3, "other", "other.exr");
+    let overlap = write(1, 2, "r", "half.exr");
+    let err = |paths: &[&PathBuf]| {
+        let v: Vec<PathBuf> = paths.iter().map(|p| p.to_path_buf()).collect();
+        merge_parts(&v).unwrap_err().to_string()
+    };
+    assert!(err(&[&a, &c]).contains("parts before it end at sample 2"));
+    assert!(err(&[&a, &b]).contains("part 3/3 is missing"));
+    assert!(err(&[&a, &a, &b, &c]).contains("part 1/3 again"));
+    let e = err(&[&a, &other, &c]);
+    assert!(e.starts_with(&other.display().to_string()) && e.contains("recipes differ"));
+    assert!(err(&[&a, &overlap]).contains("part of 2"));
+    let junk = dir.path().join("junk.exr");
+    std::fs::write(&junk, b"not an exr").unwrap();
+    assert!(err(&[&junk]).starts_with(&junk.display().to_string()));
+    // A plain render is not a partial film.
+    let plain = dir.path().join("plain");
+    let scene_path = repo("scenes/cornell-box/scene.toml");
+    let args = [
+        "render",
+        scene_path.to_str().unwrap(),
+        "--resolution",
+        "8x8",
+        "--spp",
+        "2",
+    ];
+    let mut args = args.to_vec();
+    args.extend(["-o", plain.to_str().unwrap()]);
+    ok(&aleph(&args, dir.path()));
+    assert!(err(&[&dir.path().join("plain.exr")]).contains("not a partial film"));
+}
+
+/// Runs a batch script as Slurm would run array task `index` (or the finishing job).
+fn run_script(script: &Path, index: Option<usize>) -> String {
+    let mut c = Command::new("bash");
+    c.arg(script);
+    if let Some(i) = index {
+        c.env("SLURM_ARRAY_TASK_ID", i.to_string());
+    }
+    ok(&c.output().unwrap())
+}
+
+/// Files in `dir` (not directories), sorted.
+fn files(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().is_file())
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Every file of `reference` is in `farm` with the same bytes.
+fn assert_same_files(reference: &Path, farm: &Path) {
+    let names = files(reference);
+    assert!(!names.is_empty());
+    for name in names {
+        let (a, b) = (reference.join(&name), farm.join(&name));
+        assert!(
+            std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap_or_default(),
+            "{name} differs"
+        );
+    }
+}
+
+#[test]
+fn farm_scripts_give_the_single_machine_files() {
+    let dir = tempdir();
+    let d = dir.path();
+    let scene = repo("scenes/cornell-motion/scene.toml");
+    let scene = scene.to_str().unwrap();
+    let opts = ["--resolution", "40x40", "--spp", "6"];
+    // A sequence split by frames (perceptual sampler) and one split by samples (uniform).
+    for (name, extra) in [("frames", vec![]), ("parts", vec!["--sampler", "uniform"])] {
+        let reference = d.join(format!("{name}-ref"));
+        std::fs::create_dir(&reference).unwrap();
+        let mut args = vec!["render", scene, "--frames", "2-4", "-o"];
+        let stem = reference.join("cornell-motion");
+        args.push(stem.to_str().unwrap());
+        args.extend(opts.iter().chain(&extra));
+        ok(&aleph(&args, d));
+        let farm = d.join(name);
+        let split = if name == "parts" { "3" } else { "1" };
+        let mut args = vec![
+            "farm",
+            "slurm",
+            scene,
+            "--frames",
+            "2-4",
+            "--split-samples",
+            split,
+        ];
+        args.extend(["-o", farm.to_str().unwrap(), "--"]);
+        args.extend(opts.iter().chain(&extra));
+        let text = ok(&aleph(&args, d));
+        let n = if name == "parts" { 9 } else { 3 };
+        assert!(text.contains(&format!("{n} tasks")), "{text}");
+        for i in 0..n {
+            run_script(&farm.join("render.sbatch"), Some(i));
+        }
+        let report = run_script(&farm.join("finish.sbatch"), None);
+        assert!(
+            report.contains(&format!("{n} of {n} tasks timed")),
+            "{report}"
+        );
+        assert_same_files(&reference, &farm);
+        // The parts are gone once merged; a rerun skips every task and changes nothing.
+        assert!(!files(&farm).iter().any(|f| f.contains(".part-")));
+        let before = std::fs::read(farm.join("cornell-motion.0003.exr")).unwrap();
+        for i in 0..n {
+            assert!(run_script(&farm.join("render.sbatch"), Some(i)).contains("skipped"));
+        }
+        run_script(&farm.join("finish.sbatch"), None);
+        assert_eq!(
+            std::fs::read(farm.join("cornell-motion.0003.exr")).unwrap(),
+            before
+        );
+    }
+}
+
+#[test]
+fn farm_refuses_what_cannot_split() {
+    let dir = tempdir();
+    let d = dir.path();
+    let out = d.join("f");
+    let o = out.to_str().unwrap();
+    let motion = repo("scenes/cornell-motion/scene.toml");
+    let motion = motion.to_str().unwrap();
+    let still = repo("scenes/cornell-box/scene.toml");
+    let still = still.to_str().unwrap();
+    for (args, expect) in [
+        (
+            vec!["farm", "slurm", motion, "--split-samples", "2", "-o", o],
+            "add `-- --sampler uniform`",
+        ),
+        (
+            vec!["farm", "slurm", still, "--frames", "1-2", "-o", o],
+            "needs an animated scene",
+        ),
+        (
+            vec!["farm", "slurm", motion, "--frames", "1-99", "-o", o],
+            "outside the scene's",
+        ),
+        (
+            vec!["farm", "slurm", still, "-o", o, "--", "-o", "x"],
+            "-o is the farm's to set",
+        ),
+        (
+            vec![
+                "farm",
+                "slurm",
+                still,
+                "-o",
+                o,
+                "--split-samples",
+                "9",
+                "--",
+                "--sampler",
+                "uniform",
+                "--spp",
+                "4",
+            ],
+            "more parts than the 4 samples",
+        ),
+        (
+            vec!["farm", "task", o, "--index", "0"],
+            "farm.toml: cannot read",
+        ),
+    ] {
+        let r = aleph(&args, d);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(expect), "{args:?}: {err}");
+        assert!(!out.join("farm.toml").exists(), "{args:?} wrote a manifest");
+    }
+}
+
+#[test]
+fn an_interrupted_task_leaves_nothing() {
+    let dir = tempdir();
+    let d = dir.path();
+    let farm = d.join("f");
+    let still = repo("scenes/cornell-box/scene.toml");
+    ok(&aleph(
+        &[
+            "farm",
+            "slurm",
+            still.to_str().unwrap(),
+            "-o",
+            farm.to_str().unwrap(),
+            "--split-samples",
+            "2",
+            "--",
+            "--sampler",
+            "uniform",
+            "--spp",
+            "100000",
+            "--resolution",
+            "64x64",
+        ],
+        d,
+    ));
+    let before = files(&farm);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(["farm", "task", farm.to_str().unwrap(), "--index", "1"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    // Slurm preempts with SIGTERM.
+    let pid = child.id().to_string();
+    Command::new("kill").args(["-TERM", &pid]).status().unwrap();
+    let status = child.wait().unwrap();
+    assert!(!status.success());
+    assert_eq!(files(&farm), before, "the interrupted task left files");
+    assert!(files(&farm.join("logs")).is_empty());
+}
