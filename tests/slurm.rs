@@ -106,7 +106,14 @@ fn farm_through_slurm_equals_one_machine() {
         "still",
         still.to_str().unwrap(),
         &["--split-samples", "2"],
-        &["--resolution", "128x128", "--spp", "64", "--sampler", "uniform"],
+        &[
+            "--resolution",
+            "128x128",
+            "--spp",
+            "64",
+            "--sampler",
+            "uniform",
+        ],
     );
     println!("still, 2 sample parts: {log}");
     // A resubmission finds everything done: every task skips.

@@ -1293,9 +1293,9 @@ impl Builder {
 
 /// Peak memory of a render per pixel, bytes (film, half-buffers, the perception model's images
 /// and FFT canvases). Measured as the slope of peak RSS between 1024² and 2048² renders: 183 B
-/// for the perceptual sampler, 114 B for uniform; rounded up. Scene data (BVH, textures) comes
-/// on top.
-pub const RENDER_BYTES_PER_PIXEL: u64 = 200;
+/// for the perceptual sampler, 114 B for uniform, before the film's sums became exact pairs
+/// (+56 B per pixel: 239 and 170 B); rounded up. Scene data (BVH, textures) comes on top.
+pub const RENDER_BYTES_PER_PIXEL: u64 = 250;
 
 /// Memory the system can give now, bytes (`MemAvailable` of /proc/meminfo); `None` where it
 /// cannot be read.
