@@ -207,22 +207,29 @@ pub fn read_image(path: &Path) -> Result<RgbImage, ImageError> {
 pub fn read_exr_channels(
     path: &Path,
 ) -> Result<std::collections::HashMap<String, Vec<f32>>, ImageError> {
-    let err = |message: String| ImageError::Read {
-        path: path.to_path_buf(),
-        message,
-    };
-    check_exr_size(path).map_err(err)?;
-    let img = exr::prelude::read_all_flat_layers_from_file(path).map_err(|e| err(e.to_string()))?;
-    let layer = img
-        .layer_data
-        .first()
-        .ok_or_else(|| err("no layer".into()))?;
+    let layer = read_first_layer(path)?;
     Ok(layer
         .channel_data
         .list
         .iter()
         .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
         .collect())
+}
+
+/// The first layer of an EXR file with every channel as stored.
+fn read_first_layer(
+    path: &Path,
+) -> Result<exr::prelude::Layer<exr::prelude::AnyChannels<exr::prelude::FlatSamples>>, ImageError> {
+    let err = |message: String| ImageError::Read {
+        path: path.to_path_buf(),
+        message,
+    };
+    check_exr_size(path).map_err(err)?;
+    let img = exr::prelude::read_all_flat_layers_from_file(path).map_err(|e| err(e.to_string()))?;
+    img.layer_data
+        .into_iter()
+        .next()
+        .ok_or_else(|| err("no layer".into()))
 }
 
 /// Width, height, u32 channels by name, and text attributes of an EXR's first layer.
@@ -240,28 +247,18 @@ pub type RawExr = (
 /// [`ImageError::Read`] naming the file (missing, malformed, or larger than
 /// [`MAX_IMAGE_PIXELS`]).
 pub fn read_exr_channels_raw(path: &Path) -> Result<RawExr, ImageError> {
-    let err = |message: String| ImageError::Read {
-        path: path.to_path_buf(),
-        message,
-    };
-    check_exr_size(path).map_err(err)?;
-    let img = exr::prelude::read_all_flat_layers_from_file(path).map_err(|e| err(e.to_string()))?;
-    let layer = img
-        .layer_data
-        .first()
-        .ok_or_else(|| err("no layer".into()))?;
+    let layer = read_first_layer(path)?;
+    let (size, other) = (layer.size, layer.attributes.other);
     let channels = layer
         .channel_data
         .list
-        .iter()
-        .filter_map(|c| match &c.sample_data {
-            exr::prelude::FlatSamples::U32(v) => Some((c.name.to_string(), v.clone())),
+        .into_iter()
+        .filter_map(|c| match c.sample_data {
+            exr::prelude::FlatSamples::U32(v) => Some((c.name.to_string(), v)),
             _ => None,
         })
         .collect();
-    let attributes = layer
-        .attributes
-        .other
+    let attributes = other
         .iter()
         .filter_map(|(k, v)| match v {
             exr::meta::attribute::AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
@@ -269,8 +266,8 @@ pub fn read_exr_channels_raw(path: &Path) -> Result<RawExr, ImageError> {
         })
         .collect();
     Ok((
-        layer.size.width() as u32,
-        layer.size.height() as u32,
+        size.width() as u32,
+        size.height() as u32,
         channels,
         attributes,
     ))

@@ -17,7 +17,7 @@ use super::sequence::{numbered, write_sequence_outputs};
 use aleph::partial::part_path;
 use aleph::scene::Scene;
 use anyhow::{Context, bail};
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, Subcommand};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -193,18 +193,8 @@ impl Manifest {
     }
 }
 
-/// Parses a render command line (after `render`).
-#[derive(Parser, Debug)]
-#[command(name = "aleph render", no_binary_name = true)]
-struct RenderLine {
-    #[command(flatten)]
-    args: RenderArgs,
-}
-
 fn parse_render(argv: &[String]) -> anyhow::Result<RenderArgs> {
-    let mut line = RenderLine::try_parse_from(argv).context("the render options")?;
-    line.args.argv = argv.to_vec();
-    Ok(line.args)
+    merge::parse_render(argv).context("the render options")
 }
 
 /// Seconds since the Unix epoch.

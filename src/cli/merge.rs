@@ -64,6 +64,13 @@ struct RenderLine {
     args: RenderArgs,
 }
 
+/// Parses a render command line (after `render`) as `aleph render` would, keeping it in `argv`.
+pub(super) fn parse_render(argv: &[String]) -> anyhow::Result<RenderArgs> {
+    let mut line = RenderLine::try_parse_from(argv)?;
+    line.args.argv = argv.to_vec();
+    Ok(line.args)
+}
+
 /// Renders part `(i, k)` of `scene` (loaded from `args`) to `STEM[.NNNN].part-I-of-K.exr`.
 pub(super) fn render_part_file(
     mut scene: Scene,
@@ -178,9 +185,8 @@ pub fn run(args: MergeArgs) -> anyhow::Result<ExitCode> {
     let (film, recipe_text) = merge_parts(&parts)?;
     let recipe: Recipe = toml::from_str(&recipe_text)
         .with_context(|| format!("{}: the recipe is not aleph's", parts[0].display()))?;
-    let mut line = RenderLine::try_parse_from(&recipe.args)
+    let render_args = parse_render(&recipe.args)
         .with_context(|| format!("{}: the recorded command line", parts[0].display()))?;
-    line.args.argv = recipe.args.clone();
     // The render's relative paths (the scene) are relative to where it ran.
     std::env::set_current_dir(&recipe.cwd).with_context(|| {
         format!(
@@ -192,7 +198,7 @@ pub fn run(args: MergeArgs) -> anyhow::Result<ExitCode> {
     let read_s = start.elapsed().as_secs_f64();
     let n = parts.len();
     with_threads(args.threads, move || {
-        deliver_merged(film, &line.args, &stem, n, start, read_s)
+        deliver_merged(film, &render_args, &stem, n, start, read_s)
     })?
 }
 
