@@ -52,6 +52,41 @@ pub struct PartialFilm {
     pub recipe: String,
 }
 
+/// What a partial film's header says: enough to check a set of parts before reading their
+/// pixels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartInfo {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// First sample index held.
+    pub first: u32,
+    /// One past the last sample index held.
+    pub end: u32,
+    /// Part number, from 1.
+    pub index: u32,
+    /// Number of parts of the render.
+    pub count: u32,
+    /// What the parts of one render share.
+    pub recipe: String,
+}
+
+impl PartialFilm {
+    /// The header's view of this part.
+    pub fn info(&self) -> PartInfo {
+        PartInfo {
+            width: self.film.width,
+            height: self.film.height,
+            first: self.first,
+            end: self.end,
+            index: self.index,
+            count: self.count,
+            recipe: self.recipe.clone(),
+        }
+    }
+}
+
 /// `STEM.part-I-of-K.exr`: where part `index` of `count` of the render `STEM` goes.
 pub fn part_path(stem: &Path, index: u32, count: u32) -> PathBuf {
     crate::deliver::with_ext(stem, &format!("part-{index}-of-{count}.exr"))
@@ -229,13 +264,33 @@ pub fn read_partial(path: &Path) -> Result<PartialFilm, PartialError> {
         })
 }
 
-/// Builds a [`PartialFilm`] from an EXR's u32 channels and text attributes.
-fn decode(
-    w: u32,
-    h: u32,
-    channels: &HashMap<String, Vec<u32>>,
-    attrs: &HashMap<String, String>,
-) -> Result<PartialFilm, String> {
+/// Reads only the header of a partial film written by [`write_partial`].
+///
+/// # Errors
+/// [`PartialError::Read`] naming the file: unreadable, or not a partial film of this layout.
+pub fn read_part_info(path: &Path) -> Result<PartInfo, PartialError> {
+    let err = |message: String| PartialError::Read {
+        path: path.to_path_buf(),
+        message,
+    };
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| err(format!("cannot read: {e}")))?;
+    let h = meta.headers.first().ok_or_else(|| err("no layer".into()))?;
+    let attrs: HashMap<String, String> = h
+        .own_attributes
+        .other
+        .iter()
+        .filter_map(|(k, v)| match v {
+            exr::meta::attribute::AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+            _ => None,
+        })
+        .collect();
+    let (w, hh) = (h.layer_size.width() as u32, h.layer_size.height() as u32);
+    part_info(w, hh, &attrs).map_err(|m| err(format!("not a partial film: {m}")))
+}
+
+/// The [`PartInfo`] of an EXR's size and text attributes.
+fn part_info(w: u32, h: u32, attrs: &HashMap<String, String>) -> Result<PartInfo, String> {
     let attr = |k: &str| attrs.get(k).ok_or_else(|| format!("no {k} attribute"));
     let version = attr("alephPartialFilm")?;
     if version != FORMAT_VERSION {
@@ -249,6 +304,26 @@ fn decode(
     let (index, count) = pair(attr("alephPart")?, "/")
         .filter(|&(i, k)| i >= 1 && i <= k)
         .ok_or("alephPart is not I/K with 1 ≤ I ≤ K")?;
+    Ok(PartInfo {
+        width: w,
+        height: h,
+        first,
+        end,
+        index,
+        count,
+        recipe: attr("alephRecipe")?.clone(),
+    })
+}
+
+/// Builds a [`PartialFilm`] from an EXR's u32 channels and text attributes.
+fn decode(
+    w: u32,
+    h: u32,
+    channels: &HashMap<String, Vec<u32>>,
+    attrs: &HashMap<String, String>,
+) -> Result<PartialFilm, String> {
+    let info = part_info(w, h, attrs)?;
+    let (first, end) = (info.first, info.end);
     let channel = |name: &str| {
         channels
             .get(name)
@@ -291,9 +366,9 @@ fn decode(
         film,
         first,
         end,
-        index,
-        count,
-        recipe: attr("alephRecipe")?.clone(),
+        index: info.index,
+        count: info.count,
+        recipe: info.recipe,
     })
 }
 
@@ -305,16 +380,37 @@ fn decode(
 /// # Errors
 /// [`PartialError`] naming the file that cannot be read or does not fit.
 pub fn merge_parts(paths: &[PathBuf]) -> Result<(Film, String), PartialError> {
-    let mut parts = Vec::new();
+    let mut infos = Vec::new();
     for p in paths {
-        parts.push((p.clone(), read_partial(p)?));
+        infos.push((p.clone(), read_part_info(p)?));
     }
-    let (path0, first) = parts.first().ok_or(PartialError::Empty)?;
-    let mismatch = |path: &Path, message: String| PartialError::Mismatch {
+    check_same_render(&infos)?;
+    infos.sort_by_key(|(_, p)| p.first);
+    check_coverage(&infos)?;
+    let (w, h) = (infos[0].1.width, infos[0].1.height);
+    let mut film = Film::starting_at(w, h, 0);
+    // One part in memory at a time.
+    for (path, info) in &infos {
+        let part = read_partial(path)?;
+        if part.info() != *info {
+            return Err(mismatch(path, "changed while merging".into()));
+        }
+        film.merge(&part.film).map_err(|m| mismatch(path, m))?;
+    }
+    Ok((film, infos.swap_remove(0).1.recipe))
+}
+
+fn mismatch(path: &Path, message: String) -> PartialError {
+    PartialError::Mismatch {
         path: path.to_path_buf(),
         message,
-    };
-    for (path, p) in &parts[1..] {
+    }
+}
+
+/// All parts share the first one's recipe, size and part count.
+fn check_same_render(infos: &[(PathBuf, PartInfo)]) -> Result<(), PartialError> {
+    let (path0, first) = infos.first().ok_or(PartialError::Empty)?;
+    for (path, p) in &infos[1..] {
         if p.recipe != first.recipe {
             return Err(mismatch(
                 path,
@@ -326,36 +422,27 @@ pub fn merge_parts(paths: &[PathBuf]) -> Result<(Film, String), PartialError> {
                 ),
             ));
         }
-        if (p.film.width, p.film.height, p.count)
-            != (first.film.width, first.film.height, first.count)
-        {
+        if (p.width, p.height, p.count) != (first.width, first.height, first.count) {
             return Err(mismatch(
                 path,
                 format!(
                     "{}×{} part of {}, but {} is {}×{} part of {}",
-                    p.film.width,
-                    p.film.height,
+                    p.width,
+                    p.height,
                     p.count,
                     path0.display(),
-                    first.film.width,
-                    first.film.height,
+                    first.width,
+                    first.height,
                     first.count
                 ),
             ));
         }
     }
-    parts.sort_by_key(|(_, p)| p.first);
-    check_coverage(&parts)?;
-    let recipe = parts[0].1.recipe.clone();
-    let mut film = Film::starting_at(parts[0].1.film.width, parts[0].1.film.height, 0);
-    for (path, p) in &parts {
-        film.merge(&p.film).map_err(|m| mismatch(path, m))?;
-    }
-    Ok((film, recipe))
+    Ok(())
 }
 
 /// Parts sorted by first sample must run 0..N without gap or overlap, one of each index.
-fn check_coverage(parts: &[(PathBuf, PartialFilm)]) -> Result<(), PartialError> {
+fn check_coverage(parts: &[(PathBuf, PartInfo)]) -> Result<(), PartialError> {
     let mut next = 0;
     let mut seen = vec![None::<&Path>; parts[0].1.count as usize];
     for (path, p) in parts {
