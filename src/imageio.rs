@@ -232,45 +232,51 @@ fn read_first_layer(
         .ok_or_else(|| err("no layer".into()))
 }
 
-/// Width, height, u32 channels by name, and text attributes of an EXR's first layer.
-pub type RawExr = (
-    u32,
-    u32,
-    std::collections::HashMap<String, Vec<u32>>,
-    std::collections::HashMap<String, String>,
-);
+/// An EXR's first layer as stored: size, 32-bit integer and float channels by name, and text
+/// attributes.
+#[derive(Debug, Default)]
+pub struct RawExr {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// u32 channels (bit patterns such as a partial film's sums), row-major.
+    pub u32s: std::collections::HashMap<String, Vec<u32>>,
+    /// f32 channels, row-major.
+    pub f32s: std::collections::HashMap<String, Vec<f32>>,
+    /// Text attributes.
+    pub text: std::collections::HashMap<String, String>,
+}
 
-/// The first layer of an EXR file as its size, its 32-bit unsigned integer channels (exactly as
-/// stored, for bit patterns such as a partial film's sums) and its text attributes.
+/// The first layer of an EXR file exactly as stored ([`RawExr`]).
 ///
 /// # Errors
 /// [`ImageError::Read`] naming the file (missing, malformed, or larger than
 /// [`MAX_IMAGE_PIXELS`]).
-pub fn read_exr_channels_raw(path: &Path) -> Result<RawExr, ImageError> {
+pub fn read_exr_raw(path: &Path) -> Result<RawExr, ImageError> {
     let layer = read_first_layer(path)?;
-    let (size, other) = (layer.size, layer.attributes.other);
-    let channels = layer
-        .channel_data
-        .list
-        .into_iter()
-        .filter_map(|c| match c.sample_data {
-            exr::prelude::FlatSamples::U32(v) => Some((c.name.to_string(), v)),
-            _ => None,
-        })
-        .collect();
-    let attributes = other
-        .iter()
-        .filter_map(|(k, v)| match v {
-            exr::meta::attribute::AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
-            _ => None,
-        })
-        .collect();
-    Ok((
-        size.width() as u32,
-        size.height() as u32,
-        channels,
-        attributes,
-    ))
+    let mut raw = RawExr {
+        width: layer.size.width() as u32,
+        height: layer.size.height() as u32,
+        ..Default::default()
+    };
+    for (k, v) in &layer.attributes.other {
+        if let exr::meta::attribute::AttributeValue::Text(t) = v {
+            raw.text.insert(k.to_string(), t.to_string());
+        }
+    }
+    for c in layer.channel_data.list {
+        match c.sample_data {
+            exr::prelude::FlatSamples::U32(v) => {
+                raw.u32s.insert(c.name.to_string(), v);
+            }
+            exr::prelude::FlatSamples::F32(v) => {
+                raw.f32s.insert(c.name.to_string(), v);
+            }
+            exr::prelude::FlatSamples::F16(_) => {}
+        }
+    }
+    Ok(raw)
 }
 
 /// Refuses a header whose layers claim more than [`MAX_IMAGE_PIXELS`].

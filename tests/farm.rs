@@ -61,7 +61,7 @@ fn parts_merge_into_the_single_render_bit_for_bit() {
     let single = render_adaptive(&scene, &settings, &|_| {}, &|_| {}).unwrap();
     let stem = dir.path().join("box");
     for k in [1u32, 2, 5] {
-        let paths: Vec<PathBuf> = (1..=k).map(|i| part_path(&stem, i, k)).collect();
+        let paths: Vec<PathBuf> = (1..=k).map(|i| part_path(&stem, i, k, false)).collect();
         // Written in reverse, merged in any order.
         for i in (1..=k).rev() {
             let (part, _) = render_part(&scene, spp, i, k, "r".into(), &|_| {});
@@ -70,9 +70,13 @@ fn parts_merge_into_the_single_render_bit_for_bit() {
         }
         let mut shuffled = paths.clone();
         shuffled.rotate_left(1);
-        let (film, recipe) = merge_parts(&shuffled).unwrap();
-        assert_eq!(recipe, "r");
-        assert_eq!(image_bits(&film), image_bits(&single.film), "{k} parts");
+        let merged = merge_parts(&shuffled).unwrap();
+        assert_eq!(merged.recipe, "r");
+        assert_eq!(
+            image_bits(&merged.film),
+            image_bits(&single.film),
+            "{k} parts"
+        );
     }
 }
 
@@ -95,7 +99,7 @@ fn merge_refuses_parts_that_do_not_make_one_render() {
         let v: Vec<PathBuf> = paths.iter().map(|p| p.to_path_buf()).collect();
         merge_parts(&v).unwrap_err().to_string()
     };
-    assert!(err(&[&a, &c]).contains("parts before it end at sample 2"));
+    assert!(err(&[&a, &c]).contains("holds samples 4..6, but the parts before it end at 2"));
     assert!(err(&[&a, &b]).contains("part 3/3 is missing"));
     assert!(err(&[&a, &a, &b, &c]).contains("part 1/3 again"));
     let e = err(&[&a, &other, &c]);
@@ -308,4 +312,153 @@ fn an_interrupted_task_leaves_nothing() {
     assert!(!status.success());
     assert_eq!(files(&farm), before, "the interrupted task left files");
     assert!(files(&farm.join("logs")).is_empty());
+}
+
+/// Renders `scene` perceptually in `k` row tiles with `margin`, each with budget `spp` over its
+/// sampled rows, and assembles the tiles' own rows: (image, samples taken on all machines).
+fn tiled_render(scene: &Scene, base: &AdaptiveSettings, k: u32, margin: u32) -> (Vec<f32>, u64) {
+    let h = scene.camera.height;
+    let mut film = aleph::film::Film::new(scene.camera.width, h);
+    let mut samples = 0;
+    for i in 1..=k {
+        let (y0, y1) = aleph::partial::part_range(h, i, k);
+        let s = AdaptiveSettings {
+            rows: Some((y0.saturating_sub(margin), (y1 + margin).min(h))),
+            ..base.clone()
+        };
+        let r = render_adaptive(scene, &s, &|_| {}, &|_| {}).unwrap();
+        samples += r.film.total_samples();
+        let tile = aleph::partial::tile_of(&r.film, (y0, y1), None, i, k, String::new());
+        let at = y0 as usize * scene.camera.width as usize;
+        film.pixels[at..at + tile.film.len()].copy_from_slice(&tile.film.pixels);
+    }
+    (film.mean_rgb(), samples)
+}
+
+/// What a row-tile split of one perceptual frame costs: FLIP (mean, p99) against a 2048-spp
+/// reference of the single-machine render and of tiled renders (at the same mean spp per tile,
+/// and until converged), and the samples every machine took. Prints a table; asserts nothing (a measurement).
+/// `cargo test --release --test tests farm::tile_split_cost -- --ignored --nocapture`
+#[test]
+#[ignore = "a measurement (about a minute)"]
+fn tile_split_cost() {
+    let scene = small_box(256);
+    let (reference, _) =
+        aleph::render::render_uniform(&scene, aleph::integrator::Strategy::Mis, 2048, &|_| {});
+    let s = AdaptiveSettings::default();
+    let reference = reference.mean_rgb();
+    let frozen = aleph::display::FrozenToneMap::new(&reference, 256, 256, &s.tone).unwrap();
+    let judge = aleph::speedup::Judge::new(reference, 256, 256, frozen, s.tone.view).unwrap();
+    println!("spp | split | margin | samples / single | FLIP mean | FLIP p99");
+    let vis = match std::env::var("ALEPH_TILE_VISIBILITY").as_deref() {
+        Ok("scene") => aleph::adaptive::Visibility::Scene,
+        _ => aleph::adaptive::Visibility::Display,
+    };
+    let budgets: Vec<Option<f64>> = match std::env::var("ALEPH_TILE_BUDGETS").as_deref() {
+        Ok("converged") => vec![None],
+        _ => vec![Some(16.0), Some(64.0), None],
+    };
+    for spp in budgets {
+        let one = AdaptiveSettings {
+            budget_spp: spp,
+            visibility: vis,
+            ..Default::default()
+        };
+        let r = render_adaptive(&scene, &one, &|_| {}, &|_| {}).unwrap();
+        let base = r.film.total_samples() as f64;
+        let sc = judge.score(&r.film.mean_rgb()).unwrap();
+        let label = spp.map_or("converged".to_string(), |s| format!("{s}"));
+        println!(
+            "{label} | 1 | - | 1.00 ({:.1} spp) | {:.4} | {:.4}",
+            r.mean_spp(),
+            sc.flip_mean,
+            sc.flip_p99
+        );
+        for k in [2u32, 4] {
+            let margins: &[u32] = if spp.is_some() { &[0, 16, 64] } else { &[16] };
+            for &margin in margins {
+                let (img, n) = tiled_render(&scene, &one, k, margin);
+                let sc = judge.score(&img).unwrap();
+                println!(
+                    "{label} | {k} | {margin} | {:.2} | {:.4} | {:.4}",
+                    n as f64 / base,
+                    sc.flip_mean,
+                    sc.flip_p99
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn row_tiles_assemble_into_the_frame() {
+    let dir = tempdir();
+    let d = dir.path();
+    let scene = repo("scenes/cornell-box/scene.toml");
+    let scene = scene.to_str().unwrap();
+    // Judged in scene luminance (no display curve) with a margin that covers the image, each
+    // tile's adaptive render is the single machine's, so the assembled files must be its bytes:
+    // this checks the assembly, the threshold and error layers, and the recipe.
+    let opts = [
+        "--resolution",
+        "40x40",
+        "--spp",
+        "24",
+        "--visibility",
+        "scene",
+    ];
+    let single = d.join("single");
+    let mut args = vec!["render", scene, "-o", single.to_str().unwrap()];
+    args.extend(opts);
+    ok(&aleph(&args, d));
+    let stem = d.join("t");
+    for i in 1..=3 {
+        let tile = format!("{i}/3");
+        let mut args = vec![
+            "render",
+            scene,
+            "-o",
+            stem.to_str().unwrap(),
+            "--tile",
+            &tile,
+        ];
+        args.extend(opts);
+        args.extend(["--tile-margin", "40"]);
+        ok(&aleph(&args, d));
+    }
+    let tiles: Vec<String> = (1..=3)
+        .map(|i| part_path(&stem, i, 3, true).display().to_string())
+        .collect();
+    let merged = d.join("merged");
+    let mut args = vec!["merge", "-o", merged.to_str().unwrap()];
+    args.extend(tiles.iter().map(String::as_str));
+    let text = ok(&aleph(&args, d));
+    assert!(text.contains("merged 3 row tiles"), "{text}");
+    for ext in ["exr", "png"] {
+        let a = std::fs::read(d.join(format!("single.{ext}"))).unwrap();
+        let b = std::fs::read(d.join(format!("merged.{ext}"))).unwrap();
+        assert!(a == b, "merged.{ext} differs from the single render");
+    }
+    // Tiles and sample parts do not mix; a missing tile is named.
+    let recipe = aleph::partial::read_part_info(Path::new(&tiles[0]))
+        .unwrap()
+        .recipe;
+    let (part, _) = render_part(&small_box(40), 4, 2, 3, recipe, &|_| {});
+    let part_file = d.join("p.exr");
+    write_partial(&part_file, &part).unwrap();
+    let e = merge_parts(&[PathBuf::from(&tiles[0]), part_file])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("a sample part of 3 of a 40×40 frame, but"),
+        "{e}"
+    );
+    let e = merge_parts(&[PathBuf::from(&tiles[0]), PathBuf::from(&tiles[1])]).unwrap_err();
+    assert!(e.to_string().contains("part 3/3 is missing"), "{e}");
+    // A uniform render splits by samples, an adaptive one by rows.
+    let r = aleph(
+        &["render", scene, "--tile", "1/2", "--sampler", "uniform"],
+        d,
+    );
+    assert!(String::from_utf8_lossy(&r.stderr).contains("--part I/K"));
 }

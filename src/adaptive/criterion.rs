@@ -65,6 +65,21 @@ pub(crate) struct PerceptualCriterion {
     state: Option<GuideState>,
     /// Counters of the guide render, once it ran.
     pub guide_stats: Option<RenderStats>,
+    /// A row tile's display curve, frozen once from the shared first pass (see `judge`).
+    tile_curve: Option<FrozenToneMap>,
+}
+
+/// Interleaved RGB box-filtered over (2r + 1)² pixels, channel by channel.
+fn pool_rgb(rgb: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
+    let planes: Vec<Vec<f32>> = (0..3)
+        .map(|c| {
+            let plane: Vec<f32> = rgb.iter().skip(c).step_by(3).copied().collect();
+            crate::math::box_mean(&plane, w, h, r)
+        })
+        .collect();
+    (0..w * h)
+        .flat_map(|i| planes.iter().map(move |p| p[i]))
+        .collect()
 }
 
 impl PerceptualCriterion {
@@ -83,6 +98,7 @@ impl PerceptualCriterion {
             velocity,
             state: None,
             guide_stats: None,
+            tile_curve: None,
         })
     }
 
@@ -212,6 +228,17 @@ impl PerceptualCriterion {
         let scale = scene.settings.luminance_scale;
         let mean = film.mean_rgb();
         let frozen = match s.visibility {
+            // A row tile sees the rest of the image at first-pass noise, whose log average is
+            // biased low (Jensen's inequality) and would brighten the curve pass by pass. Every
+            // tile freezes one curve instead, from the first pass (the same on every machine)
+            // pooled over 5 × 5 pixels, which removes most of that bias.
+            Visibility::Display if s.rows.is_some() => {
+                if self.tile_curve.is_none() {
+                    let pooled = pool_rgb(&mean, w, h, 2);
+                    self.tile_curve = Some(FrozenToneMap::new(&pooled, w, h, &s.tone)?);
+                }
+                self.tile_curve.clone()
+            }
             Visibility::Display => Some(FrozenToneMap::new(&mean, w, h, &s.tone)?),
             Visibility::Scene => None,
         };

@@ -52,7 +52,7 @@ use crate::integrator::{Integrator, Strategy};
 use crate::render::{RenderStats, render_counts};
 use crate::scene::Scene;
 use crate::velocity::{VelocityMap, render_velocity};
-use allocate::{allocate, fit_to_budget};
+use allocate::{Allocation, allocate, fit_to_budget};
 use criterion::{Criterion, PerceptualCriterion, VarianceCriterion};
 use perception::threshold::ThresholdParams;
 use rayon::prelude::*;
@@ -164,6 +164,11 @@ pub struct AdaptiveSettings {
     /// Whether the perceptual threshold takes the frame's velocity map (default true; only
     /// sequences have one): moving content is seen through the spatiovelocity CSF.
     pub use_velocity: bool,
+    /// Rows `start..end` that take samples after the first pass: a tile of one frame split
+    /// across machines (default `None`: every row). The first pass still covers the whole image,
+    /// so that the threshold map sees every pixel; the budget, the converged fraction and the
+    /// stop rule count the tile's pixels only.
+    pub rows: Option<(u32, u32)>,
 }
 
 impl Default for AdaptiveSettings {
@@ -187,11 +192,21 @@ impl Default for AdaptiveSettings {
             error_estimate: ErrorEstimate::HalfBuffers,
             saliency_weight: 0.0,
             use_velocity: true,
+            rows: None,
         }
     }
 }
 
 impl AdaptiveSettings {
+    /// Units of the threshold and error maps this sampler produces.
+    pub fn units(&self) -> &'static str {
+        match (self.sampler, self.visibility) {
+            (SamplerKind::Variance, _) => "Cycles relative error (dimensionless)",
+            (_, Visibility::Display) => "display luminance, cd/m^2",
+            (_, Visibility::Scene) => "scene luminance, cd/m^2",
+        }
+    }
+
     /// Samples per pixel of the uniform sampler: the budget rounded (at least 1), else
     /// `uniform_spp`, capped at `max_spp`.
     pub fn uniform_total_spp(&self) -> u32 {
@@ -339,15 +354,21 @@ struct LoopState {
     /// Rendering time of the samples not yet reported.
     unreported_render: Duration,
     decision_time: Duration,
+    /// The pixels (row-major indices) that take samples after the first pass.
+    region: std::ops::Range<usize>,
 }
 
 impl LoopState {
     /// Records a pass's report (and calls `progress`); returns the fraction converged.
     fn report(&mut self, ratio: &[f32], progress: &(dyn Fn(&PassReport) + Sync)) -> f64 {
-        let n_px = self.film.len();
-        let taken = self.film.total_samples();
+        let n_px = self.region.len();
+        let taken = self.region_samples();
         let prev: u64 = self.passes.iter().map(|p| p.samples).sum();
-        let converged = ratio.par_iter().filter(|&&r| r <= 1.0).count() as f64 / n_px as f64;
+        let converged = ratio[self.region.clone()]
+            .par_iter()
+            .filter(|&&r| r <= 1.0)
+            .count() as f64
+            / n_px as f64;
         let report = PassReport {
             pass: self.passes.len(),
             mean_spp: taken as f64 / n_px as f64,
@@ -358,6 +379,25 @@ impl LoopState {
         progress(&report);
         self.passes.push(report);
         converged
+    }
+
+    /// Samples taken in the region.
+    fn region_samples(&self) -> u64 {
+        self.film.pixels[self.region.clone()]
+            .iter()
+            .map(|p| p.count() as u64)
+            .sum()
+    }
+
+    /// Keeps the pass inside the region.
+    fn clip(&self, alloc: &mut Allocation) {
+        let r = &self.region;
+        for (i, (c, o)) in alloc.want.iter_mut().zip(&mut alloc.reopen).enumerate() {
+            if !r.contains(&i) {
+                *c = 0;
+                *o = false;
+            }
+        }
     }
 }
 
@@ -380,7 +420,19 @@ pub fn render_adaptive(
         strategy: Strategy::Mis,
     };
     let velocity = render_velocity(scene);
+    let w = scene.camera.width as usize;
+    let region = match s.rows {
+        None => 0..w * scene.camera.height as usize,
+        Some((a, b)) if a < b && b <= scene.camera.height => a as usize * w..b as usize * w,
+        Some((a, b)) => {
+            return Err(AdaptiveError::Settings(format!(
+                "rows {a}..{b} are not a range inside the image's {} rows",
+                scene.camera.height
+            )));
+        }
+    };
     let mut st = LoopState {
+        region,
         film: Film::new(scene.camera.width, scene.camera.height),
         stats: RenderStats::default(),
         passes: Vec::new(),
@@ -393,14 +445,14 @@ pub fn render_adaptive(
         r.velocity = velocity;
         return Ok(r);
     }
-    let n_px = st.film.len();
+    let n_px = st.region.len();
     let budget_total = s.budget_spp.map(|b| (b * n_px as f64).round() as u64);
     // A budget below min_spp makes the first pass the whole render (as uniform).
     let min_spp = match budget_total {
         Some(b) => s.min_spp.min((b / n_px as u64).max(1) as u32),
         None => s.min_spp,
     };
-    let first = vec![min_spp; n_px];
+    let first = vec![min_spp; st.film.len()];
     let pass = render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
     st.unreported_render = pass.wall;
     st.stats += pass;
@@ -422,11 +474,12 @@ pub fn render_adaptive(
         st.decision_time += last_judge;
         let ratio = judgement.ratio();
         let converged = st.report(&ratio, progress);
-        let remaining = budget_total.map(|b| b.saturating_sub(st.film.total_samples()));
+        let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
         if let Some(reason) = stop_before_pass(s, &mut st, &ratio, converged, remaining, start) {
             break (judgement, reason);
         }
         let mut alloc = allocate(&st.film, &ratio, st.t_level, s.max_spp);
+        st.clip(&mut alloc);
         if alloc.total() == 0 {
             let reason = if converged >= s.converged_fraction {
                 StopReason::Converged
@@ -464,11 +517,7 @@ pub fn render_adaptive(
         .last()
         .map(|p| p.converged_fraction)
         .unwrap_or(0.0);
-    let units = match (s.sampler, s.visibility) {
-        (SamplerKind::Variance, _) => "Cycles relative error (dimensionless)",
-        (_, Visibility::Display) => "display luminance, cd/m^2",
-        (_, Visibility::Scene) => "scene luminance, cd/m^2",
-    };
+    let units = s.units();
     Ok(AdaptiveResult {
         film: st.film,
         stats: st.stats,
@@ -500,7 +549,7 @@ fn stop_before_pass(
     if s.time_budget.is_some_and(|limit| start.elapsed() >= limit) {
         return Some(StopReason::Time);
     }
-    let n_px = st.film.len() as f64;
+    let n_px = st.region.len() as f64;
     if remaining.is_some_and(|r| r == 0 || (r as f64) < 0.002 * n_px) {
         return Some(StopReason::Budget);
     }
@@ -508,6 +557,7 @@ fn stop_before_pass(
         if remaining.is_none() {
             return Some(StopReason::Converged);
         }
+        let ratio = &ratio[st.region.clone()];
         while ratio.par_iter().filter(|&&r| r <= st.t_level).count() as f64 / n_px
             >= s.converged_fraction
             && st.t_level > 1e-4

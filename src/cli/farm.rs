@@ -33,7 +33,7 @@ pub struct FarmArgs {
 enum FarmCommand {
     /// Write (and with --submit, submit) a Slurm job array that renders SCENE's frames or
     /// sample parts, and a dependent job that merges them.
-    Slurm(SlurmArgs),
+    Slurm(Box<SlurmArgs>),
     /// Run task INDEX of a farm directory (what each array task runs).
     Task(TaskArgs),
     /// Merge the sample parts and write the sequence's preview (the job after the array).
@@ -50,9 +50,19 @@ struct SlurmArgs {
     /// Frames of an animated scene, FIRST-LAST (default: the scene's whole range).
     #[arg(long, value_name = "A-B", value_parser = parse_frames)]
     frames: Option<(i64, i64)>,
-    /// Split every frame's samples into K parts on K tasks (uniform sampler).
+    /// Split every frame's samples into K parts on K tasks (uniform sampler; bit-identical to
+    /// one machine).
     #[arg(long, value_name = "K", default_value_t = 1)]
     split_samples: u32,
+    /// Split every frame into K row tiles on K tasks (perceptual and variance samplers; the
+    /// measured cost is in docs/farm.md).
+    #[arg(
+        long,
+        value_name = "K",
+        default_value_t = 1,
+        conflicts_with = "split_samples"
+    )]
+    split_tiles: u32,
     /// Submit the jobs with sbatch.
     #[arg(long)]
     submit: bool,
@@ -112,8 +122,11 @@ struct Manifest {
     stem: String,
     /// Frames `[first, last]` of an animated scene; none for a still.
     frames: Option<[i64; 2]>,
-    /// Sample parts per frame.
+    /// Parts per frame.
     split: u32,
+    /// Whether the parts are row tiles (`--split-tiles`) rather than sample ranges.
+    #[serde(default)]
+    tiles: bool,
     /// Render options of every task.
     render: Vec<String>,
 }
@@ -171,7 +184,8 @@ impl Manifest {
             argv.extend(["--frame".into(), f.to_string()]);
         }
         if let Some((p, k)) = t.part {
-            argv.extend(["--part".into(), format!("{p}/{k}")]);
+            let opt = if self.tiles { "--tile" } else { "--part" };
+            argv.extend([opt.into(), format!("{p}/{k}")]);
         }
         argv.extend(["-o".into(), dir.join(&self.stem).display().to_string()]);
         argv
@@ -187,7 +201,7 @@ impl Manifest {
     fn task_outputs(&self, dir: &Path, t: Task) -> Vec<PathBuf> {
         let stem = self.frame_stem(dir, t.frame);
         match t.part {
-            Some((p, k)) => vec![part_path(&stem, p, k)],
+            Some((p, k)) => vec![part_path(&stem, p, k, self.tiles)],
             None => vec![with_ext(&stem, "exr"), with_ext(&stem, "png")],
         }
     }
@@ -207,7 +221,7 @@ fn now_s() -> f64 {
 
 pub fn run(args: FarmArgs) -> anyhow::Result<ExitCode> {
     match args.command {
-        FarmCommand::Slurm(a) => slurm(a),
+        FarmCommand::Slurm(a) => slurm(*a),
         FarmCommand::Task(a) => task(a),
         FarmCommand::Finish(a) => finish(a),
     }
@@ -215,7 +229,7 @@ pub fn run(args: FarmArgs) -> anyhow::Result<ExitCode> {
 
 /// Checks the render the manifest describes before anything is queued.
 fn check_render(m: &Manifest) -> anyhow::Result<()> {
-    for opt in ["-o", "--output", "--frames", "--frame", "--part"] {
+    for opt in ["-o", "--output", "--frames", "--frame", "--part", "--tile"] {
         if m.render
             .iter()
             .any(|a| a == opt || a.starts_with(&format!("{opt}=")))
@@ -234,11 +248,16 @@ fn check_render(m: &Manifest) -> anyhow::Result<()> {
             part: None,
         },
     ))?;
-    if m.split > 1 && !matches!(args.sampler, SamplerArg::Uniform) {
+    let uniform = matches!(args.sampler, SamplerArg::Uniform);
+    if m.split > 1 && !m.tiles && !uniform {
         bail!(
             "--split-samples splits a uniform render's samples: add `-- --sampler uniform`; the \
-             perceptual and variance samplers split by frames (docs/farm.md)"
+             perceptual and variance samplers split by rows (--split-tiles K) or by frames \
+             (docs/farm.md)"
         );
+    }
+    if m.tiles && uniform {
+        bail!("--split-tiles splits an adaptive render; a uniform one splits by --split-samples");
     }
     let scene = Scene::load_description(render::scene_description(&args, &m.scene)?)?;
     let settings = args.sampling.settings(
@@ -247,7 +266,14 @@ fn check_render(m: &Manifest) -> anyhow::Result<()> {
         scene.settings.spp,
         Default::default(),
     )?;
-    if m.split > 1 && m.split > settings.uniform_total_spp() {
+    if m.tiles && m.split > scene.camera.height {
+        bail!(
+            "--split-tiles {}: more tiles than the {} rows",
+            m.split,
+            scene.camera.height
+        );
+    }
+    if m.split > 1 && !m.tiles && m.split > settings.uniform_total_spp() {
         bail!(
             "--split-samples {}: more parts than the {} samples per pixel",
             m.split,
@@ -314,7 +340,11 @@ fn batch_scripts(m: &Manifest, dir: &Path, a: &SlurmArgs, n_tasks: usize) -> (St
     ) + &format!(
         "# One task per frame{}; a task whose outputs exist does nothing.\n\
          exec {} farm task {} --index \"$SLURM_ARRAY_TASK_ID\"\n",
-        if m.split > 1 { " and sample part" } else { "" },
+        match (m.split > 1, m.tiles) {
+            (false, _) => "",
+            (true, false) => " and sample part",
+            (true, true) => " and row tile",
+        },
         sh(&m.aleph.display().to_string()),
         sh(&dir.display().to_string()),
     );
@@ -330,8 +360,8 @@ fn batch_scripts(m: &Manifest, dir: &Path, a: &SlurmArgs, n_tasks: usize) -> (St
 }
 
 fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
-    if a.split_samples == 0 {
-        bail!("--split-samples must be at least 1");
+    if a.split_samples == 0 || a.split_tiles == 0 {
+        bail!("--split-samples and --split-tiles must be at least 1");
     }
     let absolute = |p: &Path| std::path::absolute(p).with_context(|| p.display().to_string());
     let scene = absolute(&a.scene.clone().unwrap_or_else(default_scene))?;
@@ -358,7 +388,8 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
         cwd: std::env::current_dir().context("the working directory")?,
         stem,
         frames,
-        split: a.split_samples,
+        split: a.split_samples.max(a.split_tiles),
+        tiles: a.split_tiles > 1,
         render: a.render.clone(),
     };
     check_render(&m)?;
@@ -385,10 +416,11 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
     }
     out.commit()?;
     println!(
-        "{}: {n_tasks} tasks ({} frames × {} parts) -> {}/render.sbatch, finish.sbatch",
+        "{}: {n_tasks} tasks ({} frames × {} {}) -> {}/render.sbatch, finish.sbatch",
         m.scene.display(),
         m.frame_list().len(),
         m.split,
+        if m.tiles { "tiles" } else { "parts" },
         dir.display()
     );
     if !a.submit {
@@ -544,7 +576,7 @@ fn merge_frames(m: &Manifest, dir: &Path) -> anyhow::Result<()> {
         }
         let stem = m.frame_stem(dir, frame);
         let parts: Vec<PathBuf> = (1..=m.split)
-            .map(|p| part_path(&stem, p, m.split))
+            .map(|p| part_path(&stem, p, m.split, m.tiles))
             .collect();
         merge::run(MergeArgs::new(
             parts.clone(),

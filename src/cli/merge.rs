@@ -13,7 +13,9 @@ use super::with_threads;
 use aleph::adaptive::{AdaptiveResult, SamplerKind, StopReason};
 use aleph::deliver::write_render;
 use aleph::display::ToneMapSettings;
-use aleph::partial::{merge_parts, part_path, render_part, write_partial};
+use aleph::partial::{
+    Merged, merge_parts, part_path, part_range, render_part, tile_of, write_partial,
+};
 use aleph::render::RenderStats;
 use aleph::scene::Scene;
 use aleph::sequence::AdaptationCourse;
@@ -29,12 +31,12 @@ use std::time::{Duration, Instant};
 struct Recipe {
     /// The working directory the command line's relative paths are relative to.
     cwd: PathBuf,
-    /// The command line after `render`, without `-o`, `--part` and `--threads`.
+    /// The command line after `render`, without `-o`, `--part`, `--tile` and `--threads`.
     args: Vec<String>,
 }
 
 /// Options of a render command line that take a value and do not change the image.
-const NOT_IN_RECIPE: [&str; 4] = ["-o", "--output", "--part", "--threads"];
+const NOT_IN_RECIPE: [&str; 5] = ["-o", "--output", "--part", "--tile", "--threads"];
 
 /// `argv` without the options that do not change the image.
 fn recipe_args(argv: &[String]) -> Vec<String> {
@@ -71,6 +73,35 @@ pub(super) fn parse_render(argv: &[String]) -> anyhow::Result<RenderArgs> {
     Ok(line.args)
 }
 
+/// Sets the scene to the one frame a part renders and returns that frame's stem.
+fn part_frame(scene: &mut Scene, stem: &Path, args: &RenderArgs) -> anyhow::Result<PathBuf> {
+    match (args.frames, args.frame, scene.animation) {
+        (Some(_), _, _) => bail!("--part/--tile render one frame: give --frame N, not --frames"),
+        (None, Some(f), Some(_)) => {
+            scene.set_frame(f)?;
+            Ok(numbered(stem, f))
+        }
+        (None, Some(_), None) => bail!(
+            "{}: --frame needs an animated scene (this one has no [animation] table)",
+            scene.path.display()
+        ),
+        (None, None, Some(_)) => bail!(
+            "{}: --part/--tile on an animated scene render one frame: give --frame N",
+            scene.path.display()
+        ),
+        (None, None, None) => Ok(stem.to_path_buf()),
+    }
+}
+
+/// The recipe of this command line, as text.
+fn recipe_text(args: &RenderArgs) -> anyhow::Result<String> {
+    let recipe = Recipe {
+        cwd: std::env::current_dir().context("the working directory")?,
+        args: recipe_args(&args.argv),
+    };
+    toml::to_string(&recipe).context("recording the recipe")
+}
+
 /// Renders part `(i, k)` of `scene` (loaded from `args`) to `STEM[.NNNN].part-I-of-K.exr`.
 pub(super) fn render_part_file(
     mut scene: Scene,
@@ -81,26 +112,11 @@ pub(super) fn render_part_file(
     if !matches!(args.sampler, SamplerArg::Uniform) {
         bail!(
             "--part splits the samples of a uniform render (--sampler uniform); the perceptual \
-             and variance samplers decide where samples go from all of a pixel's neighbours, so \
-             they split across machines by frames (docs/farm.md)"
+             and variance samplers split one frame by rows (--tile I/K) or a sequence by \
+             frames (docs/farm.md)"
         );
     }
-    let stem = match (args.frames, args.frame, scene.animation) {
-        (Some(_), _, _) => bail!("--part renders one frame: give --frame N, not --frames"),
-        (None, Some(f), Some(_)) => {
-            scene.set_frame(f)?;
-            numbered(stem, f)
-        }
-        (None, Some(_), None) => bail!(
-            "{}: --frame needs an animated scene (this one has no [animation] table)",
-            scene.path.display()
-        ),
-        (None, None, Some(_)) => bail!(
-            "{}: --part on an animated scene renders one frame: give --frame N",
-            scene.path.display()
-        ),
-        (None, None, None) => stem.to_path_buf(),
-    };
+    let stem = part_frame(&mut scene, stem, args)?;
     let settings = args.sampling.settings(
         SamplerKind::Uniform,
         args.spp,
@@ -111,12 +127,8 @@ pub(super) fn render_part_file(
     if k > spp {
         bail!("--part {i}/{k}: {k} parts of {spp} samples per pixel would leave parts empty");
     }
-    let recipe = Recipe {
-        cwd: std::env::current_dir().context("the working directory")?,
-        args: recipe_args(&args.argv),
-    };
-    let recipe = toml::to_string(&recipe).context("recording the recipe")?;
-    let path = part_path(&stem, i, k);
+    let recipe = recipe_text(args)?;
+    let path = part_path(&stem, i, k, false);
     aleph::output::check_output_location(&path)?;
     let start = Instant::now();
     let (part, stats) = render_part(&scene, spp, i, k, recipe, &|_| {});
@@ -126,11 +138,64 @@ pub(super) fn render_part_file(
         "{}: part {i}/{k}: samples {}..{} of {spp} per pixel, {w}×{h}, {:.2} s ({:.2} s \
          rendering, {:.2} M samples/s) -> {}",
         scene.path.display(),
-        part.first,
-        part.end,
+        part_range(spp, i, k).0,
+        part_range(spp, i, k).1,
         start.elapsed().as_secs_f64(),
         stats.wall.as_secs_f64(),
         stats.samples as f64 / stats.wall.as_secs_f64().max(1e-9) / 1e6,
+        path.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Renders row tile `(i, k)` of `scene` (loaded from `args`) adaptively to
+/// `STEM[.NNNN].tile-I-of-K.exr`: samples go to the tile's rows and `--tile-margin` rows on
+/// each side, with the budget counted over those rows; the file keeps the tile's own rows.
+pub(super) fn render_tile_file(
+    mut scene: Scene,
+    stem: &Path,
+    args: &RenderArgs,
+    (i, k): (u32, u32),
+) -> anyhow::Result<ExitCode> {
+    if matches!(args.sampler, SamplerArg::Uniform) {
+        bail!(
+            "--tile splits an adaptive render by rows; a uniform render splits by samples: --part I/K"
+        );
+    }
+    let stem = part_frame(&mut scene, stem, args)?;
+    let h = scene.camera.height;
+    if k > h {
+        bail!("--tile {i}/{k}: {k} tiles of {h} rows would leave tiles empty");
+    }
+    let (mut settings, _) = match args.frame {
+        Some(f) => {
+            let course =
+                AdaptationCourse::compute(&mut scene, f)?.context("the scene is not animated")?;
+            frame_settings(&scene, args, &course)?
+        }
+        None => still_settings(&scene, args)?,
+    };
+    let (y0, y1) = part_range(h, i, k);
+    let m = args.tile_margin;
+    settings.rows = Some((y0.saturating_sub(m), (y1 + m).min(h)));
+    let recipe = recipe_text(args)?;
+    let path = part_path(&stem, i, k, true);
+    aleph::output::check_output_location(&path)?;
+    let bar = indicatif::ProgressBar::hidden();
+    let r = super::render::render_with_progress(&scene, &settings, &bar, "")?;
+    let te = r.threshold.as_deref().zip(r.error.as_deref());
+    let part = tile_of(&r.film, (y0, y1), te, i, k, recipe);
+    write_partial(&path, &part)?;
+    println!(
+        "{}: tile {i}/{k}: rows {y0}..{y1} (samples in rows {}..{}), {:.1} spp mean over the \
+         tile, {:.1} spp in all, {}, {:.2} s -> {}",
+        scene.path.display(),
+        y0.saturating_sub(m),
+        (y1 + m).min(h),
+        part.film.total_samples() as f64 / part.film.len() as f64,
+        r.film.total_samples() as f64 / part.film.len() as f64,
+        r.stop.describe(),
+        r.wall.as_secs_f64(),
         path.display()
     );
     Ok(ExitCode::SUCCESS)
@@ -182,8 +247,8 @@ pub fn run(args: MergeArgs) -> anyhow::Result<ExitCode> {
         .map(|p| absolute(p))
         .collect::<Result<_, _>>()?;
     let stem = absolute(&output_stem(&args.output))?;
-    let (film, recipe_text) = merge_parts(&parts)?;
-    let recipe: Recipe = toml::from_str(&recipe_text)
+    let merged = merge_parts(&parts)?;
+    let recipe: Recipe = toml::from_str(&merged.recipe)
         .with_context(|| format!("{}: the recipe is not aleph's", parts[0].display()))?;
     let render_args = parse_render(&recipe.args)
         .with_context(|| format!("{}: the recorded command line", parts[0].display()))?;
@@ -198,13 +263,13 @@ pub fn run(args: MergeArgs) -> anyhow::Result<ExitCode> {
     let read_s = start.elapsed().as_secs_f64();
     let n = parts.len();
     with_threads(args.threads, move || {
-        deliver_merged(film, &render_args, &stem, n, start, read_s)
+        deliver_merged(merged, &render_args, &stem, n, start, read_s)
     })?
 }
 
 /// Loads the recipe's scene and writes the merged film as its render would have been written.
 fn deliver_merged(
-    film: aleph::film::Film,
+    merged: Merged,
     args: &RenderArgs,
     stem: &Path,
     n_parts: usize,
@@ -229,6 +294,7 @@ fn deliver_merged(
             (s, l, stem.to_path_buf())
         }
     };
+    let film = merged.film;
     if (film.width, film.height) != (scene.camera.width, scene.camera.height) {
         bail!(
             "the parts are {}×{} but the scene renders {}×{}",
@@ -238,15 +304,26 @@ fn deliver_merged(
             scene.camera.height
         );
     }
+    let (threshold, error) = merged.threshold_error.unzip();
+    let converged_fraction = match (&threshold, &error) {
+        (Some(t), Some(e)) => {
+            e.iter().zip(t).filter(|(e, t)| e <= t).count() as f64 / e.len().max(1) as f64
+        }
+        _ => 1.0,
+    };
     let result = AdaptiveResult {
         stats: RenderStats::default(),
         guide_stats: None,
         passes: Vec::new(),
         stop: StopReason::Budget,
-        converged_fraction: 1.0,
-        threshold: None,
-        error: None,
-        units: "",
+        converged_fraction,
+        units: if threshold.is_some() {
+            settings.units()
+        } else {
+            ""
+        },
+        threshold,
+        error,
         decision_time: Duration::ZERO,
         wall: start.elapsed(),
         velocity: aleph::velocity::render_velocity(&scene),
@@ -254,9 +331,14 @@ fn deliver_merged(
     };
     let written = write_render(&scene, &stem, &settings, &result, look, false)?;
     println!(
-        "{}: merged {n_parts} parts, {:.1} spp, {}×{}, {:.2} s ({read_s:.2} s reading and \
+        "{}: merged {n_parts} {}, {:.1} spp, {}×{}, {:.2} s ({read_s:.2} s reading and \
          summing) -> {}, {} ({})",
         scene.path.display(),
+        if merged.tiles {
+            "row tiles"
+        } else {
+            "sample parts"
+        },
         result.mean_spp(),
         scene.camera.width,
         scene.camera.height,

@@ -198,6 +198,7 @@ impl SamplingArgs {
             tone,
             variance_threshold: self.noise_threshold,
             guide_spp: self.guide_spp,
+            rows: None,
         };
         settings.validate()?;
         Ok(settings)
@@ -268,8 +269,23 @@ pub struct RenderArgs {
     /// I·N/K of every pixel, N = --spp) to OUT.part-I-of-K.exr, a partial film. `aleph merge`
     /// sums the K parts into the image a single render gives, bit for bit. Uniform sampler,
     /// one still or one --frame.
-    #[arg(long, value_name = "I/K", value_parser = parse_part, help_heading = "Render farms")]
+    #[arg(long, value_name = "I/K", value_parser = parse_part, help_heading = "Render farms", conflicts_with = "tile")]
     pub(super) part: Option<(u32, u32)>,
+    /// Render row tile I of K of an adaptive render (rows (I−1)·H/K .. I·H/K, samples also in
+    /// --tile-margin rows on each side, --spp counted over those rows) to
+    /// OUT.tile-I-of-K.exr; `aleph merge` assembles the K tiles. Perceptual or variance
+    /// sampler, one still or one --frame. Not identical to a single render (docs/farm.md).
+    #[arg(long, value_name = "I/K", value_parser = parse_part, help_heading = "Render farms")]
+    pub(super) tile: Option<(u32, u32)>,
+    /// Rows on each side of a --tile that also take samples, so that the tile's threshold map
+    /// sees converged neighbours.
+    #[arg(
+        long,
+        value_name = "ROWS",
+        default_value_t = 16,
+        help_heading = "Render farms"
+    )]
+    pub(super) tile_margin: u32,
     #[command(flatten)]
     pub(super) sampling: SamplingArgs,
     #[command(flatten)]
@@ -437,6 +453,9 @@ fn render_and_write(
     let mut scene = Scene::load_description(desc)?;
     if let Some(part) = args.part {
         return super::merge::render_part_file(scene, stem, args, part);
+    }
+    if let Some(tile) = args.tile {
+        return super::merge::render_tile_file(scene, stem, args, tile);
     }
     let range = match (args.frames, args.frame, scene.animation) {
         (Some(r), _, _) => Some(r),
