@@ -374,8 +374,18 @@ fn tile_split_cost() {
             sc.flip_mean,
             sc.flip_p99
         );
-        for k in [2u32, 4] {
-            let margins: &[u32] = if spp.is_some() { &[0, 16, 64] } else { &[16] };
+        // ALEPH_TILE_KS=1 measures one "tile" covering the frame: the single machine with the
+        // tiles' display curve.
+        let ks: Vec<u32> = match std::env::var("ALEPH_TILE_KS") {
+            Ok(v) => v.split(',').filter_map(|k| k.trim().parse().ok()).collect(),
+            Err(_) => vec![2, 4],
+        };
+        for &k in &ks {
+            let margins: &[u32] = match (k, spp) {
+                (1, _) => &[0],
+                (_, Some(_)) => &[0, 16, 64],
+                (_, None) => &[16],
+            };
             for &margin in margins {
                 let (img, n) = tiled_render(&scene, &one, k, margin);
                 let sc = judge.score(&img).unwrap();
