@@ -342,13 +342,22 @@ fn tiled_render(scene: &Scene, base: &AdaptiveSettings, k: u32, margin: u32) -> 
 #[test]
 #[ignore = "a measurement (about a minute)"]
 fn tile_split_cost() {
-    let scene = small_box(256);
+    // ALEPH_TILE_SCENE=holodeck measures the holodeck at 240×160 instead of the Cornell box.
+    let holodeck = std::env::var("ALEPH_TILE_SCENE").is_ok_and(|v| v == "holodeck");
+    let scene = if holodeck {
+        let mut d = SceneDescription::read(&repo("scenes/holodeck/scene.toml")).unwrap();
+        d.camera.resolution = [240, 160];
+        Scene::load_description(d).unwrap()
+    } else {
+        small_box(256)
+    };
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     let (reference, _) =
         aleph::render::render_uniform(&scene, aleph::integrator::Strategy::Mis, 2048, &|_| {});
     let s = AdaptiveSettings::default();
     let reference = reference.mean_rgb();
-    let frozen = aleph::display::FrozenToneMap::new(&reference, 256, 256, &s.tone).unwrap();
-    let judge = aleph::speedup::Judge::new(reference, 256, 256, frozen, s.tone.view).unwrap();
+    let frozen = aleph::display::FrozenToneMap::new(&reference, w, h, &s.tone).unwrap();
+    let judge = aleph::speedup::Judge::new(reference, w, h, frozen, s.tone.view).unwrap();
     println!("spp | split | margin | samples / single | FLIP mean | FLIP p99");
     let vis = match std::env::var("ALEPH_TILE_VISIBILITY").as_deref() {
         Ok("scene") => aleph::adaptive::Visibility::Scene,
@@ -356,6 +365,8 @@ fn tile_split_cost() {
     };
     let budgets: Vec<Option<f64>> = match std::env::var("ALEPH_TILE_BUDGETS").as_deref() {
         Ok("converged") => vec![None],
+        Ok("64") => vec![Some(64.0)],
+        Ok("64,converged") => vec![Some(64.0), None],
         _ => vec![Some(16.0), Some(64.0), None],
     };
     for spp in budgets {
@@ -406,9 +417,9 @@ fn row_tiles_assemble_into_the_frame() {
     let d = dir.path();
     let scene = repo("scenes/cornell-box/scene.toml");
     let scene = scene.to_str().unwrap();
-    // Judged in scene luminance (no display curve) with a margin that covers the image, each
-    // tile's adaptive render is the single machine's, so the assembled files must be its bytes:
-    // this checks the assembly, the threshold and error layers, and the recipe.
+    // With a margin that covers the image, each tile's adaptive render is the single machine's
+    // (its display curve included), so the assembled files must be its bytes: this checks the
+    // assembly, the threshold and error layers, and the recipe.
     let opts = [
         "--resolution",
         "40x40",

@@ -65,8 +65,6 @@ pub(crate) struct PerceptualCriterion {
     state: Option<GuideState>,
     /// Counters of the guide render, once it ran.
     pub guide_stats: Option<RenderStats>,
-    /// A row tile's display curve, frozen once from the shared first pass (see `judge`).
-    tile_curve: Option<FrozenToneMap>,
 }
 
 /// Interleaved RGB box-filtered over (2r + 1)² pixels, channel by channel.
@@ -98,7 +96,6 @@ impl PerceptualCriterion {
             velocity,
             state: None,
             guide_stats: None,
-            tile_curve: None,
         })
     }
 
@@ -229,15 +226,18 @@ impl PerceptualCriterion {
         let mean = film.mean_rgb();
         let frozen = match s.visibility {
             // A row tile sees the rest of the image at first-pass noise, whose log average is
-            // biased low (Jensen's inequality) and would brighten the curve pass by pass. Every
-            // tile freezes one curve instead, from the first pass (the same on every machine)
-            // pooled over 5 × 5 pixels, which removes most of that bias.
+            // biased low (Jensen's inequality): fitted to it, the curve came out brighter than
+            // the single machine's, clipped the bright wall and stopped early. The tile fits
+            // its curve each pass, as one machine does, to its own rows as they are and the
+            // rest pooled over 5 × 5 pixels, which removes most of the noise's bias.
             Visibility::Display if s.rows.is_some() => {
-                if self.tile_curve.is_none() {
-                    let pooled = pool_rgb(&mean, w, h, 2);
-                    self.tile_curve = Some(FrozenToneMap::new(&pooled, w, h, &s.tone)?);
-                }
-                self.tile_curve.clone()
+                let (a, b) = s.rows.unwrap_or((0, h as u32));
+                let pooled = pool_rgb(&mean, w, h, 2);
+                let own = a as usize * w * 3..b as usize * w * 3;
+                let mix: Vec<f32> = (0..mean.len())
+                    .map(|i| if own.contains(&i) { mean[i] } else { pooled[i] })
+                    .collect();
+                Some(FrozenToneMap::new(&mix, w, h, &s.tone)?)
             }
             Visibility::Display => Some(FrozenToneMap::new(&mean, w, h, &s.tone)?),
             Visibility::Scene => None,
