@@ -101,43 +101,23 @@ fn farm_through_slurm_equals_one_machine() {
     );
     println!("4-frame sequence, split by frames: {log}");
     let still = repo("scenes/cornell-box/scene.toml");
-    let log = through_slurm(
-        root,
-        "still",
-        still.to_str().unwrap(),
-        &["--split-samples", "2"],
-        &[
-            "--resolution",
-            "128x128",
-            "--spp",
-            "64",
-            "--sampler",
-            "uniform",
-        ],
-    );
+    let still = still.to_str().unwrap();
+    let opts = [
+        "--resolution",
+        "128x128",
+        "--spp",
+        "64",
+        "--sampler",
+        "uniform",
+    ];
+    let log = through_slurm(root, "still", still, &["--split-samples", "2"], &opts);
     println!("still, 2 sample parts: {log}");
     // A resubmission finds everything done: every task skips.
-    let again = aleph(
-        &[
-            "farm",
-            "slurm",
-            still.to_str().unwrap(),
-            "-o",
-            root.join("still").to_str().unwrap(),
-            "--split-samples",
-            "2",
-            "--submit",
-            "--wait",
-            "--",
-            "--resolution",
-            "128x128",
-            "--spp",
-            "64",
-            "--sampler",
-            "uniform",
-        ],
-        root,
-    );
+    let out = root.join("still");
+    let mut args = vec!["farm", "slurm", still, "-o", out.to_str().unwrap()];
+    args.extend(["--split-samples", "2", "--submit", "--wait", "--"]);
+    args.extend(opts);
+    let again = aleph(&args, root);
     assert!(again.contains("which has ended"), "{again}");
     for i in 0..2 {
         let log = std::fs::read_to_string(root.join(format!("still/logs/task-{i}.out"))).unwrap();
