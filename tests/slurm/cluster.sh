@@ -32,7 +32,7 @@ start() {
     mkdir -p "$dir"/{state,spool,munge}
     dir=$(cd "$dir" && pwd)
     local host cpus mem
-    host=$(hostname -s)
+    host=$(hostname -s 2>/dev/null || uname -n | cut -d. -f1)
     cpus=$(nproc)
     mem=$(( $(awk '/MemTotal/ {print $2}' /proc/meminfo) / 1024 / 2 ))
     cat > "$dir/slurm.conf" <<CONF
