@@ -10,7 +10,8 @@ use super::render::{
 };
 use super::sequence::numbered;
 use super::with_threads;
-use aleph::adaptive::{AdaptiveResult, SamplerKind, StopReason};
+use aleph::adaptive::{AdaptiveResult, AdaptiveSettings, SamplerKind, StopReason};
+use aleph::deliver::Look;
 use aleph::deliver::write_render;
 use aleph::display::ToneMapSettings;
 use aleph::partial::{
@@ -102,6 +103,20 @@ fn recipe_text(args: &RenderArgs) -> anyhow::Result<String> {
     toml::to_string(&recipe).context("recording the recipe")
 }
 
+/// Sampler settings and look of the one frame (`--frame`, already set on `scene`) or still that
+/// `args` render, as `aleph render` computes them: a frame's adaptation course runs from the
+/// sequence's start.
+fn settings_for(scene: &mut Scene, args: &RenderArgs) -> anyhow::Result<(AdaptiveSettings, Look)> {
+    match args.frame {
+        Some(f) => {
+            let course =
+                AdaptationCourse::compute(scene, f)?.context("the scene is not animated")?;
+            frame_settings(scene, args, &course)
+        }
+        None => still_settings(scene, args),
+    }
+}
+
 /// Renders part `(i, k)` of `scene` (loaded from `args`) to `STEM[.NNNN].part-I-of-K.exr`.
 pub(super) fn render_part_file(
     mut scene: Scene,
@@ -167,14 +182,7 @@ pub(super) fn render_tile_file(
     if k > h {
         bail!("--tile {i}/{k}: {k} tiles of {h} rows would leave tiles empty");
     }
-    let (mut settings, _) = match args.frame {
-        Some(f) => {
-            let course =
-                AdaptationCourse::compute(&mut scene, f)?.context("the scene is not animated")?;
-            frame_settings(&scene, args, &course)?
-        }
-        None => still_settings(&scene, args)?,
-    };
+    let (mut settings, _) = settings_for(&mut scene, args)?;
     let (y0, y1) = part_range(h, i, k);
     let m = args.tile_margin;
     settings.rows = Some((y0.saturating_sub(m), (y1 + m).min(h)));
@@ -281,18 +289,13 @@ fn deliver_merged(
         .clone()
         .unwrap_or_else(super::render::default_scene);
     let mut scene = Scene::load_description(scene_description(args, &scene_path)?)?;
-    let (settings, look, stem) = match args.frame {
-        Some(f) => {
-            let course =
-                AdaptationCourse::compute(&mut scene, f)?.context("the scene is not animated")?;
-            scene.set_frame(f)?;
-            let (s, l) = frame_settings(&scene, args, &course)?;
-            (s, l, numbered(stem, f))
-        }
-        None => {
-            let (s, l) = still_settings(&scene, args)?;
-            (s, l, stem.to_path_buf())
-        }
+    if let Some(f) = args.frame {
+        scene.set_frame(f)?;
+    }
+    let (settings, look) = settings_for(&mut scene, args)?;
+    let stem = match args.frame {
+        Some(f) => numbered(stem, f),
+        None => stem.to_path_buf(),
     };
     let film = merged.film;
     if (film.width, film.height) != (scene.camera.width, scene.camera.height) {
