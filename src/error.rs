@@ -60,7 +60,7 @@ pub enum SceneError {
     },
     /// Nothing in the scene emits light.
     #[error(
-        "{}: the scene has no light: no MTL material has a non-zero Ke and no [[light]] is given",
+        "{}: the scene has no light: no MTL material has a non-zero Ke and no [[light]] emits",
         path.display()
     )]
     NoLights {

@@ -171,19 +171,26 @@ impl Blas {
         }
     }
 
-    /// Closest hit closer than `t_max`: (triangle id, t, b1, b2).
+    /// Closest hit closer than `t_max` that `keep(triangle id, b1, b2)` accepts (alpha
+    /// cut-outs reject theirs): (triangle id, t, b1, b2).
     #[inline]
-    fn closest(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<(u32, f32, f32, f32)> {
+    fn closest(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        t_max: f32,
+        keep: impl Fn(u32, f32, f32) -> bool,
+    ) -> Option<(u32, f32, f32, f32)> {
         let bray = BvhRay::new(o, d, 0.0, t_max);
         let mut hit = RayHit::none();
         let mut bary = (0.0f32, 0.0f32);
         let found = self.bvh.ray_traverse(bray, &mut hit, |r, slot| {
             match self.isect[slot].intersect(o, d, r.tmax) {
-                Some((t, b1, b2)) => {
+                Some((t, b1, b2)) if keep(self.slot_to_tri[slot], b1, b2) => {
                     bary = (b1, b2);
                     t
                 }
-                None => f32::INFINITY,
+                _ => f32::INFINITY,
             }
         });
         // The closure only reports hits closer than the current closest, and traversal accepts
@@ -194,14 +201,20 @@ impl Blas {
         })
     }
 
-    /// True when nothing is hit closer than `t_max`.
+    /// True when nothing that `keep` accepts is hit closer than `t_max`.
     #[inline]
-    fn unoccluded(&self, o: Vec3A, d: Vec3A, t_max: f32) -> bool {
+    fn unoccluded(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        t_max: f32,
+        keep: impl Fn(u32, f32, f32) -> bool,
+    ) -> bool {
         let bray = BvhRay::new(o, d, 0.0, t_max);
         self.bvh.ray_traverse_miss(bray, |r, slot| {
             match self.isect[slot].intersect(o, d, r.tmax) {
-                Some((t, _, _)) => t,
-                None => f32::INFINITY,
+                Some((t, b1, b2)) if keep(self.slot_to_tri[slot], b1, b2) => t,
+                _ => f32::INFINITY,
             }
         })
     }
@@ -287,6 +300,65 @@ pub struct Geometry {
     pub tris: Vec<TriangleAttributes>,
     /// Time spent building the BVHs.
     pub build_time: Duration,
+    /// Alpha cut-outs, if any material has one.
+    cutouts: Option<Cutouts>,
+}
+
+/// A single-channel coverage mask (MTL `map_d`): texels in [0, 1], row 0 at the top, looked up
+/// bilinearly with repeat wrapping and tested against ½ (an alpha test: deterministic, the same
+/// for camera and shadow rays).
+#[derive(Clone, Debug)]
+pub struct AlphaMask {
+    width: usize,
+    height: usize,
+    texels: Vec<u8>,
+}
+
+impl AlphaMask {
+    /// A mask from row-major coverage values in [0, 1] (clamped). `None` for an empty or
+    /// mismatched size.
+    pub fn new(width: usize, height: usize, coverage: &[f32]) -> Option<AlphaMask> {
+        if width == 0 || height == 0 || coverage.len() != width * height {
+            return None;
+        }
+        let texels = coverage
+            .iter()
+            .map(|&a| (a.clamp(0.0, 1.0) * 255.0).round() as u8)
+            .collect();
+        Some(AlphaMask {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    /// True when the surface is present at texture coordinates `uv` (OBJ convention, v = 0 at
+    /// the bottom): bilinear coverage ≥ ½.
+    #[inline]
+    pub fn covers(&self, uv: Vec2) -> bool {
+        let x = uv.x.rem_euclid(1.0) * self.width as f32 - 0.5;
+        let y = (1.0 - uv.y.rem_euclid(1.0)) * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (w, h) = (self.width as i64, self.height as i64);
+        let t = |dx: i64, dy: i64| {
+            let cx = (x0 as i64 + dx).rem_euclid(w) as usize;
+            let cy = (y0 as i64 + dy).rem_euclid(h) as usize;
+            self.texels[cy * self.width + cx] as f32
+        };
+        let a = (t(0, 0) * (1.0 - fx) + t(1, 0) * fx) * (1.0 - fy)
+            + (t(0, 1) * (1.0 - fx) + t(1, 1) * fx) * fy;
+        a >= 127.5
+    }
+}
+
+/// The cut-out masks of a scene and which material uses which.
+#[derive(Clone, Debug)]
+pub struct Cutouts {
+    /// Mask index of each material, `u32::MAX` for an opaque one.
+    pub by_material: Vec<u32>,
+    /// The masks.
+    pub masks: Vec<AlphaMask>,
 }
 
 impl Geometry {
@@ -346,7 +418,28 @@ impl Geometry {
             instances,
             tris,
             build_time: start.elapsed(),
+            cutouts: None,
         }
+    }
+
+    /// Sets the alpha cut-outs (materials whose triangles are skipped by every ray where their
+    /// mask is below ½). `None` or a set without masks makes every surface opaque.
+    pub fn set_cutouts(&mut self, cutouts: Option<Cutouts>) {
+        self.cutouts = cutouts.filter(|c| !c.masks.is_empty());
+    }
+
+    /// True when triangle `tri` is present at barycentrics (b1, b2): always, unless its
+    /// material has a cut-out mask that is below ½ there.
+    #[inline]
+    fn present(&self, tri: u32, b1: f32, b2: f32) -> bool {
+        let Some(c) = &self.cutouts else { return true };
+        let a = &self.tris[tri as usize];
+        let m = c.by_material[a.material as usize];
+        if m == u32::MAX {
+            return true;
+        }
+        let uv = a.uv[0] * (1.0 - b1 - b2) + a.uv[1] * b1 + a.uv[2] * b2;
+        c.masks[m as usize].covers(uv)
     }
 
     /// Number of triangles.
@@ -394,7 +487,7 @@ impl Geometry {
         let mut best: Option<(u32, f32, f32, f32)> = None;
         let mut t_max = ray.t_max;
         if let Some(stat) = &self.stat
-            && let Some(h) = stat.closest(o, d, t_max)
+            && let Some(h) = stat.closest(o, d, t_max, |t, b1, b2| self.present(t, b1, b2))
         {
             t_max = h.1;
             best = Some(h);
@@ -409,7 +502,10 @@ impl Geometry {
                 let m = inst.track.at(ray.time);
                 let inv = m.inverse();
                 let (oi, di) = (inv.transform_point3a(o), inv.transform_vector3a(d));
-                if let Some(h) = inst.blas.closest(oi, di, t_max) {
+                if let Some(h) = inst
+                    .blas
+                    .closest(oi, di, t_max, |t, b1, b2| self.present(t, b1, b2))
+                {
                     t_max = h.1;
                     best = Some(h);
                     best_xf = Some(m);
@@ -471,7 +567,7 @@ impl Geometry {
         let o: Vec3A = o.into();
         let d: Vec3A = d.into();
         if let Some(stat) = &self.stat
-            && !stat.unoccluded(o, d, t_max)
+            && !stat.unoccluded(o, d, t_max, |t, b1, b2| self.present(t, b1, b2))
         {
             return false;
         }
@@ -484,8 +580,12 @@ impl Geometry {
                 return true;
             }
             let inv = inst.track.at(time).inverse();
-            inst.blas
-                .unoccluded(inv.transform_point3a(o), inv.transform_vector3a(d), t_max)
+            inst.blas.unoccluded(
+                inv.transform_point3a(o),
+                inv.transform_vector3a(d),
+                t_max,
+                |t, b1, b2| self.present(t, b1, b2),
+            )
         })
     }
 }

@@ -9,7 +9,8 @@
 //! the throughput), floored at 5 %, so the estimator stays unbiased while `max_depth` only stops
 //! pathological paths.
 
-use crate::geometry::{Ray, offset_origin};
+use crate::geometry::{Hit, Ray, offset_origin};
+use crate::light::LightSample;
 use crate::math::Frame;
 use crate::sampling::power_heuristic;
 use crate::scene::Scene;
@@ -55,29 +56,33 @@ pub struct PathResult {
 /// reflectance; capping keeps their edges strong but finite in the guide).
 pub const ALBEDO_EMITTER_CAP: f32 = 10.0;
 
+/// Emitted radiance scaled so its luminance is at most [`ALBEDO_EMITTER_CAP`].
+fn capped(le: Vec3) -> Vec3 {
+    let y = crate::math::luminance(le);
+    if y > ALBEDO_EMITTER_CAP {
+        le * (ALBEDO_EMITTER_CAP / y)
+    } else {
+        le
+    }
+}
+
 /// The first-hit albedo along `ray`, the noise-free guide of the adaptive sampler (as denoisers'
 /// albedo AOVs): the diffuse (Kd) plus specular (Ks) reflectance of the first non-delta surface,
 /// following up to 8 ideal-specular bounces and weighting by their reflectance; an emitter
-/// reports its radiance scaled so its luminance is at most [`ALBEDO_EMITTER_CAP`]; a miss is
-/// black. Uses `rng` only for the choice at dielectrics (reflect or refract by Fresnel).
+/// reports its radiance scaled so its luminance is at most [`ALBEDO_EMITTER_CAP`]; a miss
+/// reports the environment and suns seen there, capped the same way. Uses `rng` only for the
+/// choice at dielectrics (reflect or refract by Fresnel).
 pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut impl SampleSource) -> Vec3 {
     use crate::bsdf::Bsdf;
     let mut weight = Vec3::ONE;
     for _ in 0..8 {
         let Some(hit) = scene.geometry.intersect(&ray) else {
-            return Vec3::ZERO;
+            return weight * capped(scene.lights.infinite_radiance(ray.d, |_| 1.0));
         };
         let tri = &scene.geometry.tris[hit.tri as usize];
         let material = &scene.materials[tri.material as usize];
         if tri.light != u32::MAX && -ray.d.dot(hit.ng) > 0.0 {
-            let le = material.emitted(hit.uv, &scene.textures);
-            let y = crate::math::luminance(le);
-            let k = if y > ALBEDO_EMITTER_CAP {
-                ALBEDO_EMITTER_CAP / y
-            } else {
-                1.0
-            };
-            return weight * le * k;
+            return weight * capped(material.emitted(hit.uv, &scene.textures));
         }
         let bsdf = material.bsdf(hit.uv, &scene.textures);
         match bsdf {
@@ -108,7 +113,94 @@ pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut impl SampleSource) -> Vec3 
     Vec3::ZERO
 }
 
+/// The shading normal at `hit` with the material's bump or normal map applied: the map's
+/// tangent-space normal is carried into the frame of the interpolated normal and the tangent
+/// ∂p/∂u (Gram–Schmidt), with ∂p/∂v fixing the handedness (pbrt-v4 §10.5.3 for the tangents).
+/// Falls back to the unperturbed normal where the texture coordinates are degenerate or the
+/// result would face away from the geometric normal (the geometric normal still decides every
+/// side test, so a bump map cannot leak light through a surface).
+#[inline]
+fn shading_normal(
+    scene: &Scene,
+    hit: &Hit,
+    time: f32,
+    material: &crate::material::Material,
+) -> Vec3 {
+    let Some(bump) = &material.bump else {
+        return hit.ns;
+    };
+    let geo = &scene.geometry;
+    let t = &geo.tris[hit.tri as usize];
+    let v = geo.world_vertices(hit.tri, time);
+    let (duv1, duv2) = (t.uv[1] - t.uv[0], t.uv[2] - t.uv[0]);
+    let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
+    let det = duv1.x * duv2.y - duv1.y * duv2.x;
+    if det.abs() < 1e-20 {
+        return hit.ns;
+    }
+    let dpdu = (e1 * duv2.y - e2 * duv1.y) / det;
+    let dpdv = (e2 * duv1.x - e1 * duv2.x) / det;
+    let n = hit.ns;
+    let tu = (dpdu - n * n.dot(dpdu)).normalize_or_zero();
+    if tu == Vec3::ZERO || !tu.is_finite() {
+        return hit.ns;
+    }
+    let mut tv = n.cross(tu);
+    if tv.dot(dpdv) < 0.0 {
+        tv = -tv;
+    }
+    let tn = bump.tangent_normal(hit.uv, &scene.textures);
+    let p = (tu * tn.x + tv * tn.y + n * tn.z).normalize_or_zero();
+    if p.dot(hit.ng) <= 1e-4 || !p.is_finite() {
+        return hit.ns;
+    }
+    p
+}
+
+/// True when nothing blocks the light sample `ls` from the hit point: a shadow ray to a point
+/// just short of a surface sample, to the position of a point light, or out to infinity.
+#[inline]
+fn shadow_ray_clear(
+    geo: &crate::geometry::Geometry,
+    hit: &Hit,
+    ls: &LightSample,
+    time: f32,
+) -> bool {
+    let o = offset_origin(hit.p, hit.ng, ls.wi);
+    if ls.dist.is_infinite() {
+        return geo.unoccluded(o, ls.wi, f32::INFINITY, time);
+    }
+    let target = if ls.on_surface {
+        offset_origin(ls.p, ls.n, -ls.wi)
+    } else {
+        ls.p
+    };
+    let d = target - o;
+    let dist = d.length();
+    dist > 0.0 && geo.unoccluded(o, d / dist, dist, time)
+}
+
 impl Integrator {
+    /// Radiance from the lights at infinity along `d`, for a ray that left the scene after a
+    /// vertex whose BSDF sample had density `prev_pdf` (or was a delta bounce, or the camera).
+    #[inline]
+    fn escaped(&self, scene: &Scene, d: Vec3, prev_delta: bool, prev_pdf: f32) -> Vec3 {
+        if !scene.lights.has_infinite() {
+            return Vec3::ZERO;
+        }
+        scene.lights.infinite_radiance(d, |light_pdf| {
+            if prev_delta {
+                1.0
+            } else {
+                match self.strategy {
+                    Strategy::Mis => power_heuristic(prev_pdf, light_pdf),
+                    Strategy::LightOnly => 0.0,
+                    Strategy::BsdfOnly => 1.0,
+                }
+            }
+        })
+    }
+
     /// Estimates the radiance arriving along `ray`.
     /// `rng` gives the path's canonical random numbers in order: per vertex the light choice
     /// (1-D), the point on the light (2-D), the lobe choice (1-D), the direction (2-D), then
@@ -126,6 +218,7 @@ impl Integrator {
         loop {
             rays += 1;
             let Some(hit) = geo.intersect(&ray) else {
+                l += beta * self.escaped(scene, ray.d, prev_delta, prev_pdf);
                 break;
             };
             let tri = &geo.tris[hit.tri as usize];
@@ -154,11 +247,12 @@ impl Integrator {
             }
 
             let bsdf = material.bsdf(hit.uv, &scene.textures);
+            let ns = shading_normal(scene, &hit, ray.time, material);
             // Shading frame: opaque surfaces are two-sided, so face the frame towards wo.
             let ns = if !bsdf.is_transmissive() && wo_world.dot(hit.ng) < 0.0 {
-                -hit.ns
+                -ns
             } else {
-                hit.ns
+                ns
             };
             let ng_side = if !bsdf.is_transmissive() && wo_world.dot(hit.ng) < 0.0 {
                 -hit.ng
@@ -189,13 +283,9 @@ impl Integrator {
                 let wi = frame.to_local(ls.wi);
                 let f = bsdf.eval(wo, wi);
                 if f.max_element() > 0.0 {
-                    let o = offset_origin(hit.p, hit.ng, ls.wi);
-                    let target = offset_origin(ls.p, ls.n, -ls.wi);
-                    let d = target - o;
-                    let dist = d.length();
                     rays += 1;
-                    if dist > 0.0 && geo.unoccluded(o, d / dist, dist, ray.time) {
-                        let w = if self.strategy == Strategy::Mis {
+                    if shadow_ray_clear(geo, &hit, &ls, ray.time) {
+                        let w = if self.strategy == Strategy::Mis && !ls.delta {
                             power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
                         } else {
                             1.0

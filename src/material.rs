@@ -111,6 +111,11 @@ pub struct Material {
     pub transmittance: Vec3,
     /// Emitted radiance (W·sr⁻¹·m⁻²) on the front side, if the material emits.
     pub emission: Option<ColorSource>,
+    /// Index of its alpha cut-out mask (MTL `map_d`) in the scene's
+    /// [`crate::geometry::Cutouts`], if any.
+    pub cutout: Option<u32>,
+    /// Its bump or normal map, if any.
+    pub bump: Option<crate::texture::BumpMap>,
 }
 
 impl Material {

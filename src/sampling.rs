@@ -188,6 +188,79 @@ impl Distribution1D {
         }
         (i, self.pmf(i))
     }
+
+    /// Samples the piecewise-constant density on [0, 1) whose n equal cells carry the weights:
+    /// returns the point x, its density p(x) = n · pmf(i) and the cell i. Inverting the CDF
+    /// inside the cell keeps stratification of `u` (pbrt-v4's `PiecewiseConstant1D::Sample`).
+    #[inline]
+    pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
+        let (i, pmf) = self.sample(u);
+        let (c0, c1) = (self.cdf[i], self.cdf[i + 1]);
+        let du = if c1 > c0 {
+            ((u - c0) / (c1 - c0)).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        let n = self.weights.len() as f32;
+        let x = ((i as f32 + du) / n).min(1.0 - f32::EPSILON / 2.0);
+        (x, pmf * n, i)
+    }
+
+    /// The density at x ∈ [0, 1) of [`Distribution1D::sample_continuous`].
+    #[inline]
+    pub fn density(&self, x: f32) -> f32 {
+        let n = self.weights.len();
+        let i = ((x * n as f32) as usize).min(n - 1);
+        self.pmf(i) * n as f32
+    }
+}
+
+/// A piecewise-constant density on [0, 1)², one cell per texel of a `width × height` weight
+/// grid (row 0 at v = 0), sampled as a marginal over rows then a conditional within the row
+/// (pbrt-v4's `PiecewiseConstant2D`).
+#[derive(Clone, Debug)]
+pub struct Distribution2D {
+    rows: Vec<Distribution1D>,
+    marginal: Distribution1D,
+}
+
+impl Distribution2D {
+    /// Builds from row-major non-negative weights. `None` if the sizes disagree or every weight
+    /// is zero.
+    pub fn new(weights: &[f32], width: usize, height: usize) -> Option<Self> {
+        if width == 0 || height == 0 || weights.len() != width * height {
+            return None;
+        }
+        let mut row_sums = Vec::with_capacity(height);
+        let mut rows = Vec::with_capacity(height);
+        for r in weights.chunks_exact(width) {
+            let sum: f64 = r.iter().map(|&w| w as f64).sum();
+            row_sums.push(sum as f32);
+            // A row of zeros still needs a valid (never chosen) distribution.
+            rows.push(
+                Distribution1D::new(r.to_vec())
+                    .or_else(|| Distribution1D::new(vec![1.0; width]))?,
+            );
+        }
+        let marginal = Distribution1D::new(row_sums)?;
+        Some(Distribution2D { rows, marginal })
+    }
+
+    /// Samples a point (u, v) ∈ [0, 1)² and returns it with its density.
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
+        let (v, pv, r) = self.marginal.sample_continuous(u.y);
+        let (x, pu, _) = self.rows[r].sample_continuous(u.x);
+        (Vec2::new(x, v), pv * pu)
+    }
+
+    /// The density at (u, v) ∈ [0, 1)².
+    #[inline]
+    pub fn density(&self, p: Vec2) -> f32 {
+        let h = self.rows.len();
+        let r = ((p.y * h as f32) as usize).min(h - 1);
+        self.marginal.density(p.y) * self.rows[r].density(p.x)
+    }
 }
 
 #[cfg(test)]

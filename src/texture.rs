@@ -27,6 +27,19 @@ impl Texture {
     /// [`SceneError::Texture`] when the file is missing, unreadable, empty or not a supported
     /// image (PNG, JPEG, Radiance HDR).
     pub fn load(path: &Path) -> SceneResult<Texture> {
+        Texture::load_with(path, true)
+    }
+
+    /// Loads an image of non-colour data (height or normal map): 8- and 16-bit values are
+    /// taken as they are, scaled to [0, 1], without the sRGB decoding.
+    ///
+    /// # Errors
+    /// As [`Texture::load`].
+    pub fn load_data(path: &Path) -> SceneResult<Texture> {
+        Texture::load_with(path, false)
+    }
+
+    fn load_with(path: &Path, srgb: bool) -> SceneResult<Texture> {
         let err = |message: String| SceneError::Texture {
             path: path.to_path_buf(),
             message,
@@ -49,7 +62,7 @@ impl Texture {
             .pixels()
             .map(|p| {
                 let c = Vec3::new(p.0[0], p.0[1], p.0[2]);
-                if linear {
+                if linear || !srgb {
                     c.max(Vec3::ZERO)
                 } else {
                     Vec3::new(
@@ -81,6 +94,11 @@ impl Texture {
         }
     }
 
+    /// Width and height in texels.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
     /// Mean texel value (used to weight emissive textures when choosing lights).
     pub fn mean(&self) -> Vec3 {
         self.mean
@@ -107,6 +125,62 @@ impl Texture {
         (t(0, 0) * (1.0 - fx) + t(1, 0) * fx) * (1.0 - fy)
             + (t(0, 1) * (1.0 - fx) + t(1, 1) * fx) * fy
     }
+}
+
+/// How a bump or normal map perturbs the shading normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BumpKind {
+    /// A height map (MTL `bump`/`map_bump`): the tangent-space normal (−s ∂h/∂x, −s ∂h/∂y, 1)
+    /// from central differences of the texel values h ∈ [0, 1] per texel (Blinn 1978, "Simulation
+    /// of Wrinkled Surfaces", in texture space): with s = 1 (`-bm 1`), a step of 1 over one
+    /// texel is a 45° slope, whatever the scene's scale.
+    Height {
+        /// `-bm` multiplier.
+        scale: f32,
+    },
+    /// A tangent-space normal map (MTL `norm`, or a bump map whose texels average near
+    /// (0.5, 0.5, 1)): RGB = (n + 1) / 2 with +z along the surface normal, +x along +u and +y
+    /// along +v (the OpenGL convention Blender and Cycles use).
+    Normal,
+}
+
+/// A bump or normal map: a texture of non-colour data and how to read it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BumpMap {
+    /// Index into the scene's textures (loaded with [`Texture::load_data`]).
+    pub texture: u32,
+    /// Height or normal map.
+    pub kind: BumpKind,
+}
+
+impl BumpMap {
+    /// The perturbed normal in tangent space (x along +u, y along +v, z along the normal; unit
+    /// length) at texture coordinates `uv`.
+    #[inline]
+    pub fn tangent_normal(&self, uv: Vec2, textures: &[Texture]) -> Vec3 {
+        let t = &textures[self.texture as usize];
+        match self.kind {
+            BumpKind::Normal => {
+                let c = t.lookup(uv) * 2.0 - Vec3::ONE;
+                let n = c.normalize_or_zero();
+                if n.z > 0.0 { n } else { Vec3::Z }
+            }
+            BumpKind::Height { scale } => {
+                let (du, dv) = (1.0 / t.width as f32, 1.0 / t.height as f32);
+                let h = |p: Vec2| t.lookup(p).x;
+                let sx = 0.5 * (h(uv + Vec2::new(du, 0.0)) - h(uv - Vec2::new(du, 0.0)));
+                let sy = 0.5 * (h(uv + Vec2::new(0.0, dv)) - h(uv - Vec2::new(0.0, dv)));
+                Vec3::new(-scale * sx, -scale * sy, 1.0).normalize()
+            }
+        }
+    }
+}
+
+/// True when a texture's mean texel is within 0.15 of (0.5, 0.5, 1.0) per channel: a
+/// tangent-space normal map rather than a height map.
+pub fn looks_like_normal_map(t: &Texture) -> bool {
+    let m = t.mean();
+    (m - Vec3::new(0.5, 0.5, 1.0)).abs().max_element() < 0.15
 }
 
 #[cfg(test)]

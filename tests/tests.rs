@@ -11,6 +11,7 @@ mod diff;
 mod farm;
 mod furnace;
 mod fuzz;
+mod lights;
 mod reference;
 mod scenes;
 mod strategies;

@@ -7,10 +7,10 @@ use crate::animation::{
 };
 use crate::camera::Camera;
 use crate::error::{SceneError, SceneResult};
-use crate::geometry::{Geometry, STATIC_INSTANCE, TriangleAttributes};
+use crate::geometry::{AlphaMask, Cutouts, Geometry, STATIC_INSTANCE, TriangleAttributes};
 use crate::light::Lights;
 use crate::material::{ColorSource, Material, MaterialKind};
-use crate::texture::Texture;
+use crate::texture::{BumpKind, BumpMap, Texture, looks_like_normal_map};
 use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
 use serde::Deserialize;
 use std::cell::RefCell;
@@ -290,6 +290,61 @@ pub enum LightDesc {
         #[serde(deserialize_with = "exact::array")]
         radiance: [f32; 3],
     },
+    /// Light from every direction at infinity: a constant `radiance`, or an equirectangular HDR
+    /// `file` (`.hdr` or `.exr`, relative to the scene file) times `strength`, turned by
+    /// `rotate_deg` about +y (mapping as Mitsuba 3's `envmap`: see
+    /// [`crate::light::Environment`]). At most one per scene.
+    Environment {
+        /// Equirectangular image (exclusive with `radiance`).
+        file: Option<PathBuf>,
+        /// Constant radiance, W·sr⁻¹·m⁻² (exclusive with `file`).
+        #[serde(default, deserialize_with = "exact::option")]
+        radiance: Option<[f32; 3]>,
+        /// Multiplier of the image's values (default 1).
+        strength: Option<f32>,
+        /// Rotation about +y, degrees (default 0).
+        rotate_deg: Option<f32>,
+    },
+    /// A distant disc light (the sun): `direction` points towards it; `irradiance` (W·m⁻²) is
+    /// what it gives a surface facing it; `angular_diameter_deg` defaults to the real sun's
+    /// 0.53°.
+    Sun {
+        /// Direction towards the sun (any non-zero length).
+        #[serde(deserialize_with = "exact::array")]
+        direction: [f32; 3],
+        /// Irradiance on a surface facing the sun, W·m⁻², ≥ 0 each.
+        #[serde(deserialize_with = "exact::array")]
+        irradiance: [f32; 3],
+        /// Angular diameter, degrees, in (0, 180).
+        angular_diameter_deg: Option<f32>,
+    },
+    /// A point light of radiant `intensity` (W·sr⁻¹) at `position`.
+    Point {
+        /// Position.
+        #[serde(deserialize_with = "exact::array")]
+        position: [f32; 3],
+        /// Radiant intensity, W·sr⁻¹, ≥ 0 each.
+        #[serde(deserialize_with = "exact::array")]
+        intensity: [f32; 3],
+    },
+    /// A spot light at `position` aimed at `look_at`: full `intensity` (W·sr⁻¹) within
+    /// `cone_angle_deg − cone_delta_deg` of its axis, falling smoothly to zero at
+    /// `cone_angle_deg` (defaults 30° and 5°, as pbrt's spot light).
+    Spot {
+        /// Position.
+        #[serde(deserialize_with = "exact::array")]
+        position: [f32; 3],
+        /// Point on the axis.
+        #[serde(deserialize_with = "exact::array")]
+        look_at: [f32; 3],
+        /// Radiant intensity on the axis, W·sr⁻¹, ≥ 0 each.
+        #[serde(deserialize_with = "exact::array")]
+        intensity: [f32; 3],
+        /// Half-angle of the cone, degrees, in (0, 180).
+        cone_angle_deg: Option<f32>,
+        /// Width of the falloff at the cone's edge, degrees, in [0, cone_angle_deg].
+        cone_delta_deg: Option<f32>,
+    },
 }
 
 impl SceneDescription {
@@ -327,7 +382,7 @@ impl SceneDescription {
         }
     }
 
-    fn invalid(&self, message: impl Into<String>) -> SceneError {
+    pub(super) fn invalid(&self, message: impl Into<String>) -> SceneError {
         SceneError::Invalid {
             path: self.path.clone(),
             message: message.into(),
@@ -363,11 +418,12 @@ impl SceneDescription {
             return Err(self.invalid("the scene has no geometry: add a [[mesh]] or a [[light]]"));
         }
         self.check_emission(&b, &settings)?;
-        let lights = Lights::build(&mut b.tris, &b.materials, &b.textures).ok_or_else(|| {
-            SceneError::NoLights {
+        let other = super::lights::other_lights(&self, settings.luminance_scale)?;
+        let radius = bounding_radius(&b.tris);
+        let lights = Lights::build(&mut b.tris, &b.materials, &b.textures, other, radius)
+            .ok_or_else(|| SceneError::NoLights {
                 path: self.path.clone(),
-            }
-        })?;
+            })?;
         let time_range = match animation {
             Some(a) => (
                 a.frame(a.frame_start).open_s as f32,
@@ -376,8 +432,16 @@ impl SceneDescription {
             None => (0.0, 0.0),
         };
         self.check_motion_extent(&b.tris, &tracks)?;
-        let geometry = build_geometry(b.tris, tracks, time_range)
+        let mut geometry = build_geometry(b.tris, tracks, time_range)
             .map_err(|msg| self.invalid(format!("building the BVH failed: {msg}")))?;
+        geometry.set_cutouts(Some(Cutouts {
+            by_material: b
+                .materials
+                .iter()
+                .map(|m| m.cutout.unwrap_or(u32::MAX))
+                .collect(),
+            masks: b.masks,
+        }));
         let mut scene = Scene {
             camera,
             settings,
@@ -503,6 +567,8 @@ impl SceneDescription {
                         ks: ColorSource::Constant(Vec3::ZERO),
                         transmittance: Vec3::ONE,
                         emission: Some(ColorSource::Constant(Vec3::from(*radiance))),
+                        cutout: None,
+                        bump: None,
                     });
                     for p in [[c, c + e1, c + e1 + e2], [c, c + e1 + e2, c + e2]] {
                         b.tris.push(TriangleAttributes {
@@ -515,6 +581,10 @@ impl SceneDescription {
                         });
                     }
                 }
+                LightDesc::Environment { .. }
+                | LightDesc::Sun { .. }
+                | LightDesc::Point { .. }
+                | LightDesc::Spot { .. } => {}
             }
         }
         Ok(())
@@ -904,14 +974,18 @@ pub struct TextureSpec {
     pub base: f32,
     /// Gain from `-mm`.
     pub gain: f32,
+    /// Bump multiplier `-bm` (default 1).
+    pub bm: f32,
+    /// Channel `-imfchan` (r, g, b, m, l, z), if given.
+    pub imfchan: Option<char>,
 }
 
-/// Parses the argument of an MTL `map_*` statement: options (`-mm base gain` is honoured;
-/// `-o`, `-s`, `-t` (up to 3 numbers), `-bm`, `-blendu`, `-blendv`, `-boost`, `-cc`, `-clamp`,
-/// `-imfchan`, `-texres` are skipped) followed by the file name. `None` when no file is named.
+/// Parses the argument of an MTL `map_*` statement: options (`-mm base gain`, `-bm mult` and
+/// `-imfchan c` are honoured; `-o`, `-s`, `-t` (up to 3 numbers), `-blendu`, `-blendv`,
+/// `-boost`, `-cc`, `-clamp`, `-texres` are skipped) followed by the file name. `None` when no file is named.
 pub fn parse_texture_spec(s: &str) -> Option<TextureSpec> {
     let toks: Vec<&str> = s.split_whitespace().collect();
-    let (mut base, mut gain) = (0.0, 1.0);
+    let (mut base, mut gain, mut bm, mut imfchan) = (0.0, 1.0, 1.0, None);
     let mut i = 0;
     while i < toks.len() && toks[i].starts_with('-') && toks[i].len() > 1 {
         let opt = toks[i];
@@ -925,6 +999,19 @@ pub fn parse_texture_spec(s: &str) -> Option<TextureSpec> {
                 }
                 if let Some(g) = toks.get(i).and_then(|t| t.parse().ok()) {
                     gain = g;
+                    i += 1;
+                }
+            }
+            "-bm" => {
+                if let Some(b) = toks.get(i).and_then(|t| t.parse().ok()) {
+                    bm = b;
+                    i += 1;
+                }
+            }
+            "-imfchan" => {
+                if let Some(c) = toks.get(i).filter(|t| t.len() == 1).and_then(|t| t.chars().next())
+                {
+                    imfchan = Some(c);
                     i += 1;
                 }
             }
@@ -950,7 +1037,78 @@ pub fn parse_texture_spec(s: &str) -> Option<TextureSpec> {
         file: toks[i..].join(" "),
         base,
         gain,
+        bm,
+        imfchan,
     })
+}
+
+/// The distinct names given by `usemtl` lines of an OBJ file, in order of appearance.
+fn usemtl_names(obj: &[u8]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for line in obj.split(|&c| c == b'\n') {
+        let line = String::from_utf8_lossy(line);
+        if let Some(rest) = line.trim_start().strip_prefix("usemtl") {
+            let n = rest.trim();
+            if !n.is_empty() && rest.starts_with(char::is_whitespace) && !names.iter().any(|x| x == n) {
+                names.push(n.to_string());
+            }
+        }
+    }
+    names
+}
+
+/// MTL statements aleph reads (see `docs/scene-format.md`); everything else is reported.
+const MTL_READ: &[&str] = &["Kd", "Ks", "Ke", "Ns", "Ni", "d", "Tr", "illum", "map_Kd", "map_Ks", "map_Ke", "map_d", "bump", "map_bump", "map_Bump", "norm"];
+
+/// Reports once, on stderr, the MTL statements of `materials` that aleph ignores, with how many
+/// materials give each (`Ka`/`map_Ka`: a path tracer computes ambient light; `Tf`: a
+/// transmission weight in Blender's importer, ignored by three.js, so aleph's glass is clear
+/// unless `[materials.NAME] transmittance` tints it; `map_Ns`, `Pr`, …: not supported).
+fn warn_ignored_mtl(mtl: &Path, materials: &[tobj::Material]) {
+    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+    for m in materials {
+        let mut seen: Vec<&str> = Vec::new();
+        if m.ambient.is_some() {
+            seen.push("Ka");
+        }
+        if m.ambient_texture.is_some() {
+            seen.push("map_Ka");
+        }
+        if m.shininess_texture.is_some() {
+            seen.push("map_Ns");
+        }
+        for k in m.unknown_param.keys() {
+            if !k.starts_with('#') && !MTL_READ.contains(&k.as_str()) {
+                seen.push(k);
+            }
+        }
+        for k in seen {
+            *counts.entry(k.to_string()).or_default() += 1;
+        }
+    }
+    if !counts.is_empty() {
+        let list: Vec<String> = counts.iter().map(|(k, n)| format!("{k} ({n})")).collect();
+        eprintln!(
+            "warning: {}: ignored MTL statements (materials giving each): {}; see \
+             docs/scene-format.md",
+            mtl.display(),
+            list.join(", ")
+        );
+    }
+}
+
+/// Half the diagonal of the box around every vertex (rest-space positions for moving meshes):
+/// the radius of a sphere that holds the scene, for the power of lights at infinity.
+fn bounding_radius(tris: &[TriangleAttributes]) -> f32 {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for p in tris.iter().flat_map(|t| t.p) {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    if lo.x > hi.x {
+        return 1.0;
+    }
+    0.5 * (hi - lo).length()
 }
 
 /// Builds the BVHs, turning a panic inside the BVH library into an error (the scene is
@@ -1006,6 +1164,10 @@ struct Builder {
     material_index: HashMap<String, u32>,
     textures: Vec<Texture>,
     texture_index: HashMap<PathBuf, u32>,
+    /// Non-colour textures (bump and normal maps), by file, into `textures`.
+    data_index: HashMap<PathBuf, u32>,
+    masks: Vec<AlphaMask>,
+    mask_index: HashMap<(PathBuf, Option<char>), u32>,
     default_material: Option<u32>,
 }
 
@@ -1030,6 +1192,77 @@ impl Builder {
             base: spec.base,
             gain: spec.gain,
         }))
+    }
+
+    /// The cut-out mask of an MTL `map_d` argument: the `-imfchan` channel if given, else the
+    /// image's alpha channel if it has one, else its luminance (values as stored, no sRGB
+    /// decoding).
+    fn mask(&mut self, dir: &Path, spec: &str) -> SceneResult<Option<u32>> {
+        let Some(spec) = parse_texture_spec(spec) else {
+            return Ok(None);
+        };
+        let path = dir.join(spec.file.replace('\\', "/"));
+        let key = (path.clone(), spec.imfchan);
+        if let Some(&id) = self.mask_index.get(&key) {
+            return Ok(Some(id));
+        }
+        let err = |message: String| SceneError::Texture {
+            path: path.clone(),
+            message,
+        };
+        let img = image::ImageReader::open(&path)
+            .map_err(|e| err(e.to_string()))?
+            .with_guessed_format()
+            .map_err(|e| err(e.to_string()))?
+            .decode()
+            .map_err(|e| err(e.to_string()))?;
+        let has_alpha = img.color().has_alpha();
+        let rgba = img.into_rgba32f();
+        let (w, h) = (rgba.width() as usize, rgba.height() as usize);
+        let coverage: Vec<f32> = rgba
+            .pixels()
+            .map(|p| {
+                let [r, g, b, a] = p.0;
+                match spec.imfchan {
+                    Some('r') => r,
+                    Some('g') => g,
+                    Some('b') => b,
+                    Some('l') | Some('z') => 0.2126 * r + 0.7152 * g + 0.0722 * b,
+                    _ if has_alpha => a,
+                    _ => 0.2126 * r + 0.7152 * g + 0.0722 * b,
+                }
+            })
+            .collect();
+        let mask = AlphaMask::new(w, h, &coverage).ok_or_else(|| err("image has zero size".into()))?;
+        let id = self.masks.len() as u32;
+        self.masks.push(mask);
+        self.mask_index.insert(key, id);
+        Ok(Some(id))
+    }
+
+    /// A bump (`normal = false`: height map unless the image is a normal map) or normal map.
+    fn bump(&mut self, dir: &Path, spec: &str, normal: bool) -> SceneResult<Option<BumpMap>> {
+        let Some(spec) = parse_texture_spec(spec) else {
+            return Ok(None);
+        };
+        let path = dir.join(spec.file.replace('\\', "/"));
+        let id = match self.data_index.get(&path) {
+            Some(&id) => id,
+            None => {
+                let t = Texture::load_data(&path)?;
+                let id = self.textures.len() as u32;
+                self.textures.push(t);
+                self.data_index.insert(path, id);
+                id
+            }
+        };
+        let is_normal = normal || looks_like_normal_map(&self.textures[id as usize]);
+        let kind = if is_normal {
+            BumpKind::Normal
+        } else {
+            BumpKind::Height { scale: spec.bm }
+        };
+        Ok(Some(BumpMap { texture: id, kind }))
     }
 
     fn convert_material(
@@ -1112,29 +1345,24 @@ impl Builder {
         } else {
             ks
         };
-        let tf = m
-            .unknown_param
-            .get("Tf")
-            .map(|s| {
-                let v: Vec<f32> = s
-                    .split_whitespace()
-                    .filter_map(|t| t.parse().ok())
-                    .collect();
-                match v.len() {
-                    1 => Vec3::splat(v[0]),
-                    n if n >= 3 => Vec3::new(v[0], v[1], v[2]),
-                    _ => Vec3::ONE,
-                }
-            })
-            .unwrap_or(Vec3::ONE)
-            .clamp(Vec3::ZERO, Vec3::ONE);
+        let cutout = match &m.dissolve_texture {
+            Some(t) => self.mask(dir, t)?,
+            None => None,
+        };
+        let bump = match (m.unknown_param.get("norm"), &m.normal_texture) {
+            (Some(t), _) => self.bump(dir, t, true)?,
+            (None, Some(t)) => self.bump(dir, t, false)?,
+            (None, None) => None,
+        };
         Ok(Material {
             name: m.name.clone(),
             kind,
             kd,
             ks,
-            transmittance: tf,
+            transmittance: Vec3::ONE,
             emission,
+            cutout,
+            bump,
         })
     }
 
@@ -1162,6 +1390,8 @@ impl Builder {
             single_index: true,
             ..Default::default()
         };
+        let used = usemtl_names(&text);
+        let stubs: RefCell<Vec<String>> = RefCell::new(Vec::new());
         let (models, materials) = tobj::load_obj_buf(&mut text.as_slice(), &opts, |name| {
             let full = dir.join(name);
             mtl_paths.borrow_mut().push(full.clone());
@@ -1169,7 +1399,22 @@ impl Builder {
             if let Some(msg) = msg {
                 mtl_failure.borrow_mut().get_or_insert((full.clone(), msg));
             }
-            r
+            // A `usemtl` that names no MTL material gets a grey stub of that name, so that it is
+            // reported and `[materials.NAME]` can replace it.
+            r.map(|(mut mats, mut map)| {
+                for n in &used {
+                    if !map.contains_key(n) {
+                        map.insert(n.clone(), mats.len());
+                        mats.push(tobj::Material {
+                            name: n.clone(),
+                            diffuse: Some([0.8; 3]),
+                            ..Default::default()
+                        });
+                        stubs.borrow_mut().push(n.clone());
+                    }
+                }
+                (mats, map)
+            })
         })
         .map_err(|e| obj_err(format!("{e}")))?;
         if let Some((p, message)) = mtl_failure.into_inner() {
@@ -1186,6 +1431,17 @@ impl Builder {
             .unwrap_or_else(|| path.to_path_buf());
         let mtl_dir = mtl_path.parent().unwrap_or(Path::new("")).to_path_buf();
         let materials = materials.unwrap_or_default();
+        let stubs = stubs.into_inner();
+        if !stubs.is_empty() {
+            eprintln!(
+                "warning: {}: usemtl names no material of {} for {:?}: shown as grey 0.8 \
+                 (override with [materials.NAME])",
+                path.display(),
+                mtl_path.display(),
+                stubs
+            );
+        }
+        warn_ignored_mtl(&mtl_path, &materials);
         let mut local_to_global = Vec::with_capacity(materials.len());
         for m in &materials {
             let mat = self.convert_material(m, &mtl_dir, &mtl_path)?;
@@ -1285,6 +1541,8 @@ impl Builder {
                 ks: ColorSource::Constant(Vec3::ZERO),
                 transmittance: Vec3::ONE,
                 emission: None,
+                cutout: None,
+                bump: None,
             });
             self.materials.len() as u32 - 1
         })

@@ -32,6 +32,7 @@
 //! radiance = [17.0, 12.0, 4.0]     # W·sr⁻¹·m⁻²
 //! ```
 
+mod lights;
 mod loader;
 
 pub use loader::{SceneDescription, parse_texture_spec};

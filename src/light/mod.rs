@@ -1,0 +1,311 @@
+//! Lights: emissive triangles (one-sided diffuse area emitters), an environment (constant or an
+//! equirectangular HDR map), suns (distant discs of finite angular size), and point and spot
+//! lights.
+//!
+//! Next-event estimation picks one light with probability proportional to its emitted power
+//! (luminance-weighted; any positive weight keeps the estimator unbiased, power makes it
+//! efficient): an emissive triangle's is Y(Le) × area × π; an infinite light's is its radiance
+//! times the area π r² of the scene's bounding disc (4π · π r² · mean Y for the environment,
+//! π r² · Y(E) for a sun, as pbrt-v4's `Light::Phi`); a point light's 4π Y(I).
+//!
+//! On a triangle it samples a point uniformly (area pdf 1/A) and converts to solid angle at the
+//! receiver: pdf_ω = pdf_A · d² / |cos θ_l| (Veach 1997 eq. 8.10). The environment and suns are
+//! sampled in solid angle directly; point and spot lights are delta lights.
+
+mod analytic;
+mod environment;
+
+pub use analytic::{PointLight, SUN_ANGULAR_DIAMETER_DEG, Sun};
+pub use environment::Environment;
+
+use crate::geometry::{Geometry, TriangleAttributes};
+use crate::material::Material;
+use crate::sampling::{Distribution1D, square_to_uniform_triangle};
+use crate::texture::Texture;
+use glam::{Vec2, Vec3};
+
+/// A light sample: a direction from the receiver and the radiance arriving along it.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Point on the emitter (for an infinite light, a point one unit along `wi`).
+    pub p: Vec3,
+    /// Unit normal of the emitter at `p` (its emitting side); −`wi` for lights without a
+    /// surface.
+    pub n: Vec3,
+    /// Radiance arriving at the receiver (W·sr⁻¹·m⁻²); for a delta light, the irradiance
+    /// I / d² (W·m⁻²) it gives a surface facing it. Zero if the receiver is behind.
+    pub le: Vec3,
+    /// Unit direction from the receiver to the light.
+    pub wi: Vec3,
+    /// Distance from the receiver to `p`; infinite for the environment and suns.
+    pub dist: f32,
+    /// Solid-angle pdf at the receiver (includes the choice of light); for a delta light, the
+    /// probability of choosing it.
+    pub pdf: f32,
+    /// True for point and spot lights (no MIS: BSDF sampling cannot reach them).
+    pub delta: bool,
+    /// True when `p` lies on a surface (a triangle), so a shadow ray stops short of it.
+    pub on_surface: bool,
+}
+
+/// The lights that are not triangles, as the scene file gives them.
+#[derive(Clone, Debug, Default)]
+pub struct OtherLights {
+    /// The environment, if any.
+    pub environment: Option<Environment>,
+    /// Suns.
+    pub suns: Vec<Sun>,
+    /// Point and spot lights.
+    pub points: Vec<PointLight>,
+}
+
+/// The scene's emitters and the distribution used to choose among them.
+///
+/// Lights are numbered for selection: emissive triangles first (`tris[i]` is light i), then the
+/// environment, then the suns, then the point and spot lights.
+#[derive(Clone, Debug)]
+pub struct Lights {
+    /// Triangle id of each emissive triangle.
+    pub tris: Vec<u32>,
+    /// The environment, suns, point and spot lights.
+    pub other: OtherLights,
+    dist: Distribution1D,
+}
+
+impl Lights {
+    /// Collects emissive triangles, assigns their `light` indices, and joins them with `other`
+    /// into one power distribution. `scene_radius` is the radius of a sphere bounding the
+    /// scene (world units; for the power of infinite lights). Returns `None` if nothing emits.
+    pub fn build(
+        tris: &mut [TriangleAttributes],
+        materials: &[Material],
+        textures: &[Texture],
+        other: OtherLights,
+        scene_radius: f32,
+    ) -> Option<Lights> {
+        let mut ids = Vec::new();
+        let mut powers: Vec<f64> = Vec::new();
+        for (i, t) in tris.iter_mut().enumerate() {
+            t.light = u32::MAX;
+            let m = &materials[t.material as usize];
+            let Some(e) = &m.emission else { continue };
+            let y = crate::math::luminance(e.mean(textures).max(Vec3::ZERO));
+            // In f64: the power of a bright, large emitter overflows f32 and that of a faint,
+            // tiny one underflows it; such lights must not silently vanish.
+            let p64 = y as f64 * t.area() as f64 * std::f64::consts::PI;
+            if p64 > 0.0 && p64.is_finite() {
+                t.light = ids.len() as u32;
+                ids.push(i as u32);
+                powers.push(p64);
+            }
+        }
+        let disc = std::f64::consts::PI * (scene_radius as f64).max(1e-6).powi(2);
+        let lum = |v: Vec3| crate::math::luminance(v.max(Vec3::ZERO)) as f64;
+        if let Some(env) = &other.environment {
+            powers.push(4.0 * std::f64::consts::PI * disc * env.mean_luminance() as f64);
+        }
+        for sun in &other.suns {
+            powers.push(disc * lum(sun.irradiance));
+        }
+        for p in &other.points {
+            powers.push(p.power_factor() as f64 * lum(p.intensity));
+        }
+        let max = powers.iter().copied().fold(0.0, f64::max);
+        if !(max > 0.0 && max.is_finite()) {
+            return None;
+        }
+        // Relative weights, which f32 holds whatever the absolute scale. A light of zero power
+        // (a black environment) keeps a tiny weight so that it stays a valid choice.
+        let weights: Vec<f32> = powers
+            .iter()
+            .map(|&p| ((p / max) as f32).max(f32::MIN_POSITIVE))
+            .collect();
+        let dist = Distribution1D::new(weights)?;
+        Some(Lights {
+            tris: ids,
+            other,
+            dist,
+        })
+    }
+
+    /// Number of lights (emissive triangles, environment, suns, point and spot lights).
+    pub fn len(&self) -> usize {
+        self.dist.len()
+    }
+
+    /// True when there are no emitters (never for a built set).
+    pub fn is_empty(&self) -> bool {
+        self.dist.is_empty()
+    }
+
+    /// Total emitted power weight (relative units; for statistics).
+    pub fn total_power(&self) -> f64 {
+        self.dist.total()
+    }
+
+    /// True when light reaches rays that leave the scene (an environment or a sun).
+    #[inline]
+    pub fn has_infinite(&self) -> bool {
+        self.other.environment.is_some() || !self.other.suns.is_empty()
+    }
+
+    #[inline]
+    fn env_index(&self) -> usize {
+        self.tris.len()
+    }
+
+    #[inline]
+    fn sun_index(&self, k: usize) -> usize {
+        self.tris.len() + self.other.environment.is_some() as usize + k
+    }
+
+    /// Samples a light as seen from `p_ref` at scene time `time` (moving emitters are where
+    /// they are then). `uc` chooses the light, `u` the point or direction on it. Returns `None`
+    /// for a degenerate configuration (zero distance, grazing, a pole of the environment).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn sample(
+        &self,
+        p_ref: Vec3,
+        uc: f32,
+        u: Vec2,
+        time: f32,
+        geo: &Geometry,
+        materials: &[Material],
+        textures: &[Texture],
+    ) -> Option<LightSample> {
+        let (li, pmf) = self.dist.sample(uc);
+        if li < self.tris.len() {
+            return self.sample_triangle(li, pmf, p_ref, u, time, geo, materials, textures);
+        }
+        let mut k = li - self.tris.len();
+        let infinite = |wi: Vec3, le: Vec3, pdf: f32| LightSample {
+            p: p_ref + wi,
+            n: -wi,
+            le,
+            wi,
+            dist: f32::INFINITY,
+            pdf,
+            delta: false,
+            on_surface: false,
+        };
+        if let Some(env) = &self.other.environment {
+            if k == 0 {
+                let (wi, le, pdf) = env.sample(u)?;
+                return Some(infinite(wi, le, pmf * pdf));
+            }
+            k -= 1;
+        }
+        if let Some(sun) = self.other.suns.get(k) {
+            let (wi, pdf) = sun.sample(u);
+            return Some(infinite(wi, sun.radiance, pmf * pdf));
+        }
+        let light = &self.other.points[k - self.other.suns.len()];
+        let d = light.position - p_ref;
+        let dist2 = d.length_squared();
+        if dist2 <= 0.0 {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        Some(LightSample {
+            p: light.position,
+            n: -wi,
+            le: light.intensity_towards(-wi) / dist2,
+            wi,
+            dist,
+            pdf: pmf,
+            delta: true,
+            on_surface: false,
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn sample_triangle(
+        &self,
+        li: usize,
+        pmf: f32,
+        p_ref: Vec3,
+        u: Vec2,
+        time: f32,
+        geo: &Geometry,
+        materials: &[Material],
+        textures: &[Texture],
+    ) -> Option<LightSample> {
+        let tri = self.tris[li];
+        let t = &geo.tris[tri as usize];
+        let v = geo.world_vertices(tri, time);
+        let b = square_to_uniform_triangle(u);
+        let b0 = 1.0 - b.x - b.y;
+        let p = v[0] * b.x + v[1] * b.y + v[2] * b0;
+        let cross = (v[1] - v[0]).cross(v[2] - v[0]);
+        let n = crate::math::robust_normalize(cross);
+        let area = 0.5 * crate::math::robust_length(cross);
+        let d = p - p_ref;
+        let dist2 = d.length_squared();
+        if dist2 <= 0.0 || area <= 0.0 {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        let cos_l = -wi.dot(n);
+        if cos_l <= 1e-7 {
+            return None; // back of a one-sided emitter, or grazing
+        }
+        let uv = t.uv[0] * b.x + t.uv[1] * b.y + t.uv[2] * b0;
+        let le = materials[t.material as usize].emitted(uv, textures);
+        let pdf = pmf / area * dist2 / cos_l;
+        Some(LightSample {
+            p,
+            n,
+            le,
+            wi,
+            dist,
+            pdf,
+            delta: false,
+            on_surface: true,
+        })
+    }
+
+    /// Radiance arriving along unit direction `d` from the lights at infinity (a ray that left
+    /// the scene), each term weighted by `weight(pdf)`, where pdf is the solid-angle density
+    /// with which [`Lights::sample`] would have chosen that light and direction (for MIS).
+    #[inline]
+    pub fn infinite_radiance(&self, d: Vec3, weight: impl Fn(f32) -> f32) -> Vec3 {
+        let mut l = Vec3::ZERO;
+        if let Some(env) = &self.other.environment {
+            let le = env.radiance(d);
+            if le.max_element() > 0.0 {
+                l += le * weight(self.dist.pmf(self.env_index()) * env.pdf(d));
+            }
+        }
+        for (k, sun) in self.other.suns.iter().enumerate() {
+            if sun.contains(d) {
+                l += sun.radiance * weight(self.dist.pmf(self.sun_index(k)) * sun.pdf(d));
+            }
+        }
+        l
+    }
+
+    /// Solid-angle pdf with which [`Lights::sample`] would pick point `p_light` on emitter
+    /// triangle `tri` (whose `light` index is set) from `p_ref` at scene time `time`.
+    #[inline]
+    pub fn pdf(&self, geo: &Geometry, tri: u32, time: f32, p_ref: Vec3, p_light: Vec3) -> f32 {
+        let light = geo.tris[tri as usize].light;
+        if light == u32::MAX {
+            return 0.0;
+        }
+        let v = geo.world_vertices(tri, time);
+        let cross = (v[1] - v[0]).cross(v[2] - v[0]);
+        let n = crate::math::robust_normalize(cross);
+        let area = 0.5 * crate::math::robust_length(cross);
+        let d = p_light - p_ref;
+        let dist2 = d.length_squared();
+        let cos_l = (-d.dot(n) / dist2.sqrt()).max(0.0);
+        if cos_l <= 1e-7 || area <= 0.0 {
+            return 0.0;
+        }
+        self.dist.pmf(light as usize) / area * dist2 / cos_l
+    }
+}

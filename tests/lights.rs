@@ -1,0 +1,353 @@
+//! Lights other than emissive triangles, against analytic solutions: the environment (furnace
+//! tests), the sun, point and spot lights.
+
+use crate::util::*;
+use aleph::film::Film;
+use aleph::integrator::Strategy;
+use aleph::scene::Scene;
+use std::f64::consts::PI;
+
+fn lum(p: &aleph::film::PixelStats) -> f64 {
+    aleph::math::luminance(p.mean().as_vec3()) as f64
+}
+
+/// Every pixel of `film` within its Šidák-corrected z-test of `expected(x, y)`, and the
+/// standard error small enough (below `max_rel_se` of the value) for the test to mean something.
+fn assert_pixels(film: &Film, what: &str, max_rel_se: f64, expected: impl Fn(usize, usize) -> f64) {
+    let z = sidak_z(0.01, film.len());
+    for (i, p) in film.pixels.iter().enumerate() {
+        let (x, y) = (i % film.width as usize, i / film.width as usize);
+        let want = expected(x, y);
+        let se = p.lum_std_error();
+        let got = lum(p);
+        assert!(
+            (got - want).abs() <= z * se + 1e-6 * want.abs(),
+            "{what}: pixel ({x}, {y}) {got} vs {want} (se {se})"
+        );
+        assert!(
+            se <= max_rel_se * want.abs().max(1e-3),
+            "{what}: se {se} of {want}"
+        );
+    }
+}
+
+/// A white furnace: surfaces of albedo 1 under a uniform environment L leave the radiance field
+/// uniform (nothing is absorbed), so every pixel is L, whatever the geometry. The open box (a
+/// cube [-1,1]³ without its +z face, seen through the opening) makes paths bounce many times:
+/// this needs every bounce Russian roulette keeps alive, and MIS of BSDF and environment
+/// samples. Then a convex cube of albedo ρ sees only the environment: exactly ρL.
+#[test]
+fn environment_furnace() {
+    let dir = tempdir();
+    let (l, rho) = (1.5f64, 0.6f64);
+    // Open box: the cube's five faces other than +z, facing inward.
+    let mut box_obj = String::from("mtllib m.mtl\n");
+    let cube = cube_obj(1.0, true, "white", 0);
+    for line in cube.lines() {
+        // Inward faces are written reversed; the +z face is the one over vertices 5..8.
+        if line.starts_with("f ")
+            && line.contains('5')
+            && line.contains('6')
+            && line.contains('7')
+            && line.contains('8')
+        {
+            continue;
+        }
+        box_obj += line;
+        box_obj += "\n";
+    }
+    let scene_toml = |obj: &str, env: &str| {
+        format!(
+            r#"
+[camera]
+position = [0.0, 0.0, 4.0]
+look_at = [0.0, 0.0, 0.0]
+vfov_deg = 30.0
+resolution = [10, 10]
+[render]
+max_depth = 200
+seed = 5
+[[mesh]]
+file = "{obj}"
+[[light]]
+type = "environment"
+{env}
+"#
+        )
+    };
+    write_files(
+        dir.path(),
+        &[
+            ("box.obj", &box_obj),
+            (
+                "cube.obj",
+                &format!("mtllib m.mtl\n{}", cube_obj(0.5, false, "grey", 0)),
+            ),
+            (
+                "m.mtl",
+                &format!("newmtl white\nKd 1 1 1\nnewmtl grey\nKd {rho} {rho} {rho}\n"),
+            ),
+            (
+                "box.toml",
+                &scene_toml("box.obj", &format!("radiance = [{l}, {l}, {l}]")),
+            ),
+            (
+                "cube.toml",
+                &scene_toml("cube.obj", &format!("radiance = [{l}, {l}, {l}]")),
+            ),
+        ],
+    );
+    let open_box = Scene::load(&dir.path().join("box.toml")).unwrap();
+    for strategy in [Strategy::Mis, Strategy::BsdfOnly, Strategy::LightOnly] {
+        let film = render(&open_box, strategy, 1024);
+        let (mean, se) = image_mean_and_se(&film);
+        assert!(
+            (mean - l).abs() <= 4.0 * se,
+            "{strategy:?}: open box {mean} ± {se} vs {l}"
+        );
+        assert!(se < 0.01 * l, "{strategy:?}: se {se}");
+        if strategy != Strategy::LightOnly {
+            assert_pixels(&film, &format!("{strategy:?} open box"), 0.05, |_, _| l);
+        }
+    }
+    // The convex cube fills the centre of the view; the rest is the environment itself.
+    let cube = Scene::load(&dir.path().join("cube.toml")).unwrap();
+    for strategy in [Strategy::Mis, Strategy::BsdfOnly, Strategy::LightOnly] {
+        let film = render(&cube, strategy, 256);
+        let centre = &film.pixels[5 * 10 + 5];
+        let z = sidak_z(0.01, 2);
+        let want = rho * l;
+        let se = centre.lum_std_error();
+        assert!(
+            (lum(centre) - want).abs() <= z * se + 1e-6,
+            "{strategy:?}: cube {} vs {want} ± {se}",
+            lum(centre)
+        );
+        let corner = lum(&film.pixels[0]);
+        assert!(
+            (corner - l).abs() < 1e-5,
+            "{strategy:?}: background {corner} vs {l}"
+        );
+    }
+}
+
+/// A diffuse plane y = 0 of albedo ρ seen from straight above through a narrow lens (0.1°: the
+/// radiance varies by less than 1e-3 over a pixel's footprint).
+fn plane_scene(dir: &std::path::Path, rho: f64, light: &str) -> Scene {
+    let obj = "mtllib m.mtl\nusemtl p\nv -50 0 -50\nv 50 0 -50\nv 50 0 50\nv -50 0 50\nf 1 4 3 2\n";
+    let toml = format!(
+        r#"
+[camera]
+position = [0.3, 10.0, 0.2]
+look_at = [0.3, 0.0, 0.2]
+up = [0.0, 0.0, -1.0]
+vfov_deg = 0.1
+resolution = [6, 6]
+[render]
+max_depth = 1
+seed = 9
+[[mesh]]
+file = "p.obj"
+{light}
+"#
+    );
+    write_files(
+        dir,
+        &[
+            ("p.obj", obj),
+            ("m.mtl", &format!("newmtl p\nKd {rho} {rho} {rho}\n")),
+            ("scene.toml", &toml),
+        ],
+    );
+    Scene::load(&dir.join("scene.toml")).unwrap()
+}
+
+/// The point (x, z) of the plane seen at the centre of pixel `k` of [`plane_scene`]'s 6×6
+/// image: the camera at height 10 over (0.3, 0.2) looks down with image right = +x and image
+/// down = +z, half-width 10 tan 0.05°.
+fn plane_point(k: usize) -> (f64, f64) {
+    let half = 10.0 * 0.05f64.to_radians().tan();
+    let s = |i: usize| (2.0 * (i as f64 + 0.5) / 6.0 - 1.0) * half;
+    (0.3 + s(k % 6), 0.2 + s(k / 6))
+}
+
+/// A point light of intensity I at height h above the plane point (0.3, 0, 0.2) + offset gives
+/// the reflected radiance ρ/π · I cos θ / d² (deterministic: one light, no variance beyond the
+/// pixel's footprint). The spot version is full inside its cone and dark outside it.
+#[test]
+fn point_and_spot_lights_match_inverse_square_law() {
+    let dir = tempdir();
+    let rho = 0.5f64;
+    let i = 40.0f64;
+    let (lx, ly, lz) = (1.3f64, 2.0f64, -0.6f64);
+    let scene = plane_scene(
+        dir.path(),
+        rho,
+        &format!(
+            "[[light]]\ntype = \"point\"\nposition = [{lx}, {ly}, {lz}]\nintensity = [{i}, {i}, {i}]"
+        ),
+    );
+    let film = render(&scene, Strategy::Mis, 4);
+    for (k, p) in film.pixels.iter().enumerate() {
+        let (x, z) = plane_point(k);
+        let (dx, dz) = (x - lx, z - lz);
+        let d2 = dx * dx + dz * dz + ly * ly;
+        let want = rho / PI * i * (ly / d2.sqrt()) / d2;
+        assert!(
+            (lum(p) / want - 1.0).abs() < 1e-3,
+            "point: {} vs {want}",
+            lum(p)
+        );
+    }
+    // BSDF sampling cannot reach a delta light.
+    let dark = render(&scene, Strategy::BsdfOnly, 4);
+    assert!(dark.pixels.iter().all(|p| lum(p) == 0.0));
+
+    // A spot aimed at the viewed point (cone 20°, falloff 5°) lights it fully; aimed 30° away,
+    // not at all.
+    for (aim, full) in [
+        ((0.3, 0.0, 0.2), true),
+        (
+            (0.3 + 2.0 * 30f64.to_radians().tan() * 3.0, 0.0, 0.2),
+            false,
+        ),
+    ] {
+        let sub = dir.path().join(format!("spot{full}"));
+        std::fs::create_dir_all(&sub).unwrap();
+        let scene = plane_scene(
+            &sub,
+            rho,
+            &format!(
+                "[[light]]\ntype = \"spot\"\nposition = [0.3, 2.0, 0.2]\nlook_at = [{}, {}, {}]\n\
+                 intensity = [{i}, {i}, {i}]\ncone_angle_deg = 20.0\ncone_delta_deg = 5.0",
+                aim.0, aim.1, aim.2
+            ),
+        );
+        let film = render(&scene, Strategy::Mis, 4);
+        for (k, p) in film.pixels.iter().enumerate() {
+            let (x, z) = plane_point(k);
+            let (dx, dz) = (x - 0.3, z - 0.2);
+            let d2 = dx * dx + dz * dz + 4.0;
+            let want = if full {
+                rho / PI * i * (2.0 / d2.sqrt()) / d2
+            } else {
+                0.0
+            };
+            assert!(
+                (lum(p) - want).abs() <= 1e-3 * want + 1e-7,
+                "spot {full}: {} vs {want}",
+                lum(p)
+            );
+        }
+    }
+}
+
+/// A sun of irradiance E straight above the plane gives ρE/π, by all three strategies (the
+/// sun is a cone of finite size that BSDF samples can hit); a wider sun too.
+#[test]
+fn sun_gives_rho_e_over_pi() {
+    let rho = 0.7f64;
+    let e = 3.0f64;
+    for diameter in [0.53, 10.0] {
+        let dir = tempdir();
+        let scene = plane_scene(
+            dir.path(),
+            rho,
+            &format!(
+                "[[light]]\ntype = \"sun\"\ndirection = [0.0, 1.0, 0.0]\nirradiance = [{e}, {e}, {e}]\n\
+                 angular_diameter_deg = {diameter}"
+            ),
+        );
+        let want = rho * e / PI;
+        for strategy in [Strategy::Mis, Strategy::LightOnly] {
+            let film = render(&scene, strategy, 64);
+            let (mean, se) = image_mean_and_se(&film);
+            // Light sampling of a sun straight above: cos θ varies by < 1e-5 over a 0.53° disc.
+            let tol = (4.0 * se).max(2e-5 * want);
+            assert!(
+                (mean - want).abs() <= tol,
+                "{diameter}° {strategy:?}: {mean} ± {se} vs {want}"
+            );
+        }
+        if diameter > 1.0 {
+            // BSDF sampling hits a 10° disc often enough to converge.
+            let film = render(&scene, Strategy::BsdfOnly, 4096);
+            let (mean, se) = image_mean_and_se(&film);
+            assert!(
+                (mean - want).abs() <= 4.0 * se,
+                "{diameter}° BSDF: {mean} ± {se} vs {want}"
+            );
+            assert!(se < 0.03 * want);
+        }
+    }
+}
+
+/// An HDR environment map (the bundled Venice sunset) around a glossy and a diffuse cube: light
+/// sampling, BSDF sampling and MIS converge to the same image.
+#[test]
+fn environment_map_strategies_agree() {
+    let dir = tempdir();
+    std::fs::copy(
+        repo("tests/data/venice_sunset_1k.hdr"),
+        dir.path().join("env.hdr"),
+    )
+    .unwrap();
+    // A grey cube at the origin and a small glossy one beside it.
+    let small: String = cube_obj(0.25, false, "gloss", 8)
+        .lines()
+        .map(|line| match line.strip_prefix("v ") {
+            Some(rest) => {
+                let v: Vec<f32> = rest
+                    .split_whitespace()
+                    .map(|t| t.parse().unwrap())
+                    .collect();
+                format!("v {} {} {}\n", v[0] + 0.9, v[1] + 0.3, v[2] + 0.4)
+            }
+            None => format!("{line}\n"),
+        })
+        .collect();
+    let obj = format!("mtllib m.mtl\n{}{small}", cube_obj(0.5, false, "grey", 0));
+    let toml = r#"
+[camera]
+position = [1.5, 1.2, 3.0]
+look_at = [0.2, 0.0, 0.0]
+vfov_deg = 45.0
+resolution = [12, 12]
+[render]
+seed = 2
+[[mesh]]
+file = "s.obj"
+[[light]]
+type = "environment"
+file = "env.hdr"
+rotate_deg = 40.0
+strength = 0.5
+"#;
+    write_files(
+        dir.path(),
+        &[
+            ("s.obj", &obj),
+            (
+                "m.mtl",
+                "newmtl grey\nKd 0.5 0.5 0.5\nnewmtl gloss\nKd 0.2 0.2 0.2\nKs 0.5 0.5 0.5\nNs 100\n",
+            ),
+            ("scene.toml", toml),
+        ],
+    );
+    let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
+    let spp = 1024;
+    let films: Vec<Film> = [Strategy::Mis, Strategy::LightOnly, Strategy::BsdfOnly]
+        .iter()
+        .map(|&s| render(&scene, s, spp))
+        .collect();
+    let (m0, s0) = image_mean_and_se(&films[0]);
+    for (k, f) in films.iter().enumerate().skip(1) {
+        let (m, s) = image_mean_and_se(f);
+        let se = (s0 * s0 + s * s).sqrt();
+        assert!(
+            (m - m0).abs() <= 4.0 * se,
+            "strategy {k}: {m} vs MIS {m0} (se {se})"
+        );
+        assert!(se < 0.02 * m0, "se {se} of {m0}");
+    }
+}
