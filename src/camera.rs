@@ -1,4 +1,4 @@
-//! The pinhole camera.
+//! The camera: a pinhole, or a thin lens with depth of field.
 
 use crate::animation::CameraKey;
 use crate::geometry::Ray;
@@ -23,6 +23,10 @@ pub struct Camera {
     pub height: u32,
     /// Vertical field of view in degrees.
     pub vfov_deg: f32,
+    /// Radius of the thin lens's aperture, world units (0: a pinhole, everything sharp).
+    pub lens_radius: f32,
+    /// Distance from the eye along the view direction to the plane in focus, world units.
+    pub focus_distance: f32,
 }
 
 impl Camera {
@@ -52,7 +56,17 @@ impl Camera {
             width,
             height,
             vfov_deg,
+            lens_radius: 0.0,
+            focus_distance: 1.0,
         })
+    }
+
+    /// The same camera with a thin lens of aperture radius `lens_radius` (world units, ≥ 0)
+    /// focused at `focus_distance` (> 0) along the view direction (pbrt-v4 §5.2.3).
+    pub fn with_lens(mut self, lens_radius: f32, focus_distance: f32) -> Camera {
+        self.lens_radius = lens_radius.max(0.0);
+        self.focus_distance = focus_distance;
+        self
     }
 
     /// Horizontal field of view in degrees.
@@ -90,16 +104,35 @@ impl Camera {
     }
 
     /// The primary ray through pixel (x, y) at sub-pixel offset `u` ∈ [0,1)², at scene time
-    /// `time` (seconds).
+    /// `time` (seconds), through the centre of the lens.
     #[inline]
     pub fn generate_ray(&self, x: u32, y: u32, u: Vec2, time: f32) -> Ray {
+        self.generate_ray_lens(x, y, u, Vec2::splat(0.5), time)
+    }
+
+    /// As [`Camera::generate_ray`], through the point of the lens that `lens` ∈ [0,1)² maps to
+    /// (concentric disc mapping): the ray leaves that point towards where the pinhole ray meets
+    /// the plane of focus, so that plane stays sharp and the rest blurs with distance from it.
+    #[inline]
+    pub fn generate_ray_lens(&self, x: u32, y: u32, u: Vec2, lens: Vec2, time: f32) -> Ray {
         let aspect = self.width as f32 / self.height as f32;
         let sx = (2.0 * (x as f32 + u.x) / self.width as f32 - 1.0) * self.tan_half_v * aspect;
         let sy = (1.0 - 2.0 * (y as f32 + u.y) / self.height as f32) * self.tan_half_v;
-        let d = (self.forward + self.right * sx + self.up * sy).normalize();
+        let dir = self.forward + self.right * sx + self.up * sy;
+        if self.lens_radius <= 0.0 {
+            return Ray {
+                o: self.position,
+                d: dir.normalize(),
+                t_max: f32::INFINITY,
+                time,
+            };
+        }
+        let focus = self.position + dir * self.focus_distance;
+        let l = crate::sampling::square_to_concentric_disk(lens) * self.lens_radius;
+        let o = self.position + self.right * l.x + self.up * l.y;
         Ray {
-            o: self.position,
-            d,
+            o,
+            d: (focus - o).normalize(),
             t_max: f32::INFINITY,
             time,
         }

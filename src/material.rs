@@ -3,8 +3,8 @@
 //! # Mapping from MTL (documented in `docs/scene-format.md`)
 //! Checked in this order for each `newmtl`:
 //! 1. **Transparent** ([`MaterialKind::Dielectric`]): `illum` 4, 6, 7 or 9, or dissolve `d` < 1,
-//!    or `Tr` > 0. Index of refraction `Ni` (1.5 when absent or not positive), transmission
-//!    filter `Tf` (white when absent).
+//!    or `Tr` > 0. Index of refraction `Ni` (1.5 when absent or not positive); clear, as `Tf`
+//!    is not read as a filter (Blender's importer reads it as a transmission weight).
 //! 2. **Ideal specular** ([`MaterialKind::Mirror`]): `illum` 5 or 8, or `Ks` non-zero with `Ns` ≥
 //!    10000 (GGX α < 0.014, indistinguishable from a mirror). Reflectance `Ks` (white if zero).
 //! 3. **Glossy** ([`MaterialKind::Glossy`]): `Ks` non-zero or `map_Ks` present. Diffuse `Kd` plus a
@@ -17,7 +17,10 @@
 //!
 //! Textures (`map_Kd`, `map_Ks`, `map_Ke`) replace the corresponding constant, as Blender's OBJ
 //! importer does, except that `map_Ke` multiplies `Ke`. The `-mm base gain` option is honoured
-//! (value = base + gain × texel); other options are parsed and ignored.
+//! (value = base + gain × texel); other options are parsed and ignored. `map_d` is an alpha
+//! cut-out ([`crate::geometry::AlphaMask`]), `bump`/`map_bump`/`norm` a bump or normal map
+//! ([`crate::texture::BumpMap`]). The full mapping and the ignored statements are listed in
+//! `docs/scene-format.md`.
 
 use crate::bsdf::{Bsdf, Dielectric, Ggx, Glossy, Lambert, Mirror};
 use crate::texture::Texture;
@@ -107,7 +110,8 @@ pub struct Material {
     pub kd: ColorSource,
     /// Specular reflectance (`Ks`), linear RGB in [0,1].
     pub ks: ColorSource,
-    /// Transmission filter (`Tf`), linear RGB in [0,1].
+    /// Transmission filter of a dielectric (`[materials.NAME] transmittance`; white from an MTL),
+    /// linear RGB in [0,1].
     pub transmittance: Vec3,
     /// Emitted radiance (W·sr⁻¹·m⁻²) on the front side, if the material emits.
     pub emission: Option<ColorSource>,

@@ -49,9 +49,7 @@ fn sample_pixel(
     for _ in 0..count {
         let time = scene.sample_time(seed, index, px.n as u64);
         let mut rng = Rng::for_sample(seed, index, px.n as u64);
-        let ray = scene
-            .camera_at(time)
-            .generate_ray(x, y, rng.uniform2(), time);
+        let ray = scene.camera_ray(seed, (x, y), px.n as u64, rng.uniform2(), time);
         let r = integrator.radiance(scene, ray, &mut rng);
         *rays += r.rays as u64;
         let v = if r.radiance.is_finite() {
@@ -161,9 +159,7 @@ pub fn render_albedo(scene: &Scene, spp: u32, seed: u64) -> Vec<f32> {
                 let time = scene.sample_time(seed, index, k as u64);
                 let mut rng = Rng::for_sample(seed, index, k as u64);
                 let ray =
-                    scene
-                        .camera_at(time)
-                        .generate_ray(x as u32, y as u32, rng.uniform2(), time);
+                    scene.camera_ray(seed, (x as u32, y as u32), k as u64, rng.uniform2(), time);
                 let a = crate::integrator::albedo(scene, ray, &mut rng);
                 if a.is_finite() {
                     acc += a;

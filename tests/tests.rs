@@ -15,4 +15,5 @@ mod lights;
 mod reference;
 mod scenes;
 mod strategies;
+mod surfaces;
 mod tonemap;

@@ -208,7 +208,7 @@ impl Environment {
                 let (sp, cp) = phi.sin_cos();
                 let d = self.to_world * Vec3::new(sin_t * sp, cos_t, -sin_t * cp);
                 let pdf = pdf_uv / (2.0 * PI * h as f32 * row_solid_angle(r, h));
-                if !(pdf > 0.0) {
+                if pdf.is_nan() || pdf <= 0.0 {
                     return None;
                 }
                 Some((d, self.radiance(d), pdf))

@@ -108,6 +108,11 @@ pub struct CameraDesc {
     /// Width and height in pixels, each in 1..=65536.
     #[serde(deserialize_with = "exact::array")]
     pub resolution: [u32; 2],
+    /// Thin-lens aperture radius, world units (default 0: a pinhole).
+    pub aperture_radius: Option<f32>,
+    /// Distance to the plane in focus along the view direction, world units (default: the
+    /// distance from `position` to `look_at`).
+    pub focus_distance: Option<f32>,
     /// `[[camera.keys]]`: keyframes; a missing value holds the previous key's (the first key's
     /// default to the table's own).
     #[serde(default)]
@@ -843,6 +848,19 @@ impl SceneDescription {
         if vals.clone().any(|v| !v.is_finite()) {
             return Err(self.invalid("camera position, look_at and up must be finite"));
         }
+        let aperture = c.aperture_radius.unwrap_or(0.0);
+        if !(aperture.is_finite() && aperture >= 0.0) {
+            return Err(self.invalid(format!(
+                "camera.aperture_radius must be finite and ≥ 0, got {aperture}"
+            )));
+        }
+        let to_target = Vec3::from(c.look_at) - Vec3::from(c.position);
+        let focus = c.focus_distance.unwrap_or(to_target.length());
+        if !(focus.is_finite() && focus > 0.0) {
+            return Err(self.invalid(format!(
+                "camera.focus_distance must be a positive distance, got {focus}"
+            )));
+        }
         Camera::look_at(
             c.position.into(),
             c.look_at.into(),
@@ -851,6 +869,7 @@ impl SceneDescription {
             w,
             h,
         )
+        .map(|cam| cam.with_lens(aperture, focus))
         .ok_or_else(|| {
             self.invalid("camera: look_at must differ from position and not be parallel to up")
         })
@@ -1009,7 +1028,10 @@ pub fn parse_texture_spec(s: &str) -> Option<TextureSpec> {
                 }
             }
             "-imfchan" => {
-                if let Some(c) = toks.get(i).filter(|t| t.len() == 1).and_then(|t| t.chars().next())
+                if let Some(c) = toks
+                    .get(i)
+                    .filter(|t| t.len() == 1)
+                    .and_then(|t| t.chars().next())
                 {
                     imfchan = Some(c);
                     i += 1;
@@ -1049,7 +1071,10 @@ fn usemtl_names(obj: &[u8]) -> Vec<String> {
         let line = String::from_utf8_lossy(line);
         if let Some(rest) = line.trim_start().strip_prefix("usemtl") {
             let n = rest.trim();
-            if !n.is_empty() && rest.starts_with(char::is_whitespace) && !names.iter().any(|x| x == n) {
+            if !n.is_empty()
+                && rest.starts_with(char::is_whitespace)
+                && !names.iter().any(|x| x == n)
+            {
                 names.push(n.to_string());
             }
         }
@@ -1058,7 +1083,10 @@ fn usemtl_names(obj: &[u8]) -> Vec<String> {
 }
 
 /// MTL statements aleph reads (see `docs/scene-format.md`); everything else is reported.
-const MTL_READ: &[&str] = &["Kd", "Ks", "Ke", "Ns", "Ni", "d", "Tr", "illum", "map_Kd", "map_Ks", "map_Ke", "map_d", "bump", "map_bump", "map_Bump", "norm"];
+const MTL_READ: &[&str] = &[
+    "Kd", "Ks", "Ke", "Ns", "Ni", "d", "Tr", "illum", "map_Kd", "map_Ks", "map_Ke", "map_d",
+    "bump", "map_bump", "map_Bump", "norm",
+];
 
 /// Reports once, on stderr, the MTL statements of `materials` that aleph ignores, with how many
 /// materials give each (`Ka`/`map_Ka`: a path tracer computes ambient light; `Tf`: a
@@ -1233,7 +1261,8 @@ impl Builder {
                 }
             })
             .collect();
-        let mask = AlphaMask::new(w, h, &coverage).ok_or_else(|| err("image has zero size".into()))?;
+        let mask =
+            AlphaMask::new(w, h, &coverage).ok_or_else(|| err("image has zero size".into()))?;
         let id = self.masks.len() as u32;
         self.masks.push(mask);
         self.mask_index.insert(key, id);
@@ -1680,11 +1709,16 @@ mod tests {
             TextureSpec {
                 file: "screen.png".into(),
                 base: 0.0,
-                gain: 0.4
+                gain: 0.4,
+                bm: 1.0,
+                imfchan: None,
             }
         );
         let s = parse_texture_spec("-s 1 1 1 -bm 0.5 my tex.png").unwrap();
         assert_eq!(s.file, "my tex.png");
+        assert_eq!(s.bm, 0.5);
+        let s = parse_texture_spec("-imfchan m -clamp on alpha.png").unwrap();
+        assert_eq!((s.imfchan, s.file.as_str()), (Some('m'), "alpha.png"));
         assert_eq!(parse_texture_spec("wall.png").unwrap().file, "wall.png");
         assert!(parse_texture_spec("").is_none());
     }

@@ -49,6 +49,9 @@ use std::path::{Path, PathBuf};
 /// Key of the shutter-time stream (independent of the path's stream).
 const TIME_STREAM_KEY: u64 = 0xBB67_AE85_84CA_A73B;
 
+/// Key of the lens-sample stream.
+const LENS_STREAM_KEY: u64 = 0x3C6E_F372_FE94_F82B;
+
 /// Render settings from the scene's `[render]` table (command-line flags may override them).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -146,11 +149,13 @@ impl Scene {
         }
         self.frame = anim.frame(index);
         if let Some(track) = &self.camera_track {
+            let (lens, focus) = (self.camera.lens_radius, self.camera.focus_distance);
             self.camera = Camera::from_key(
                 &track.at(self.frame.time_s as f32),
                 self.camera.width,
                 self.camera.height,
             )
+            .map(|c| c.with_lens(lens, focus))
             .ok_or_else(|| {
                 invalid(format!(
                     "frame {index}: the camera's look direction is zero or parallel to up"
@@ -167,7 +172,9 @@ impl Scene {
         match &self.camera_track {
             Some(track) if time != self.frame.time_s as f32 => {
                 match Camera::from_key(&track.at(time), self.camera.width, self.camera.height) {
-                    Some(c) => std::borrow::Cow::Owned(c),
+                    Some(c) => std::borrow::Cow::Owned(
+                        c.with_lens(self.camera.lens_radius, self.camera.focus_distance),
+                    ),
                     None => std::borrow::Cow::Borrowed(&self.camera),
                 }
             }
@@ -186,6 +193,29 @@ impl Scene {
         let u = crate::rng::Rng::for_sample(seed ^ TIME_STREAM_KEY, pixel_index, sample_index)
             .uniform();
         self.frame.sample_time(u)
+    }
+
+    /// The primary ray of sample `sample_index` of pixel (x, y) = `pixel_index` at sub-pixel
+    /// offset `u` and time `time`: through the lens point drawn from a stream of its own when
+    /// the camera has an aperture (so the path's random numbers are the same with and without
+    /// depth of field), else through the pinhole.
+    #[inline]
+    pub fn camera_ray(
+        &self,
+        seed: u64,
+        (x, y): (u32, u32),
+        sample_index: u64,
+        u: glam::Vec2,
+        time: f32,
+    ) -> crate::geometry::Ray {
+        let cam = self.camera_at(time);
+        if cam.lens_radius <= 0.0 {
+            return cam.generate_ray(x, y, u, time);
+        }
+        let index = y as u64 * self.camera.width as u64 + x as u64;
+        let lens =
+            crate::rng::Rng::for_sample(seed ^ LENS_STREAM_KEY, index, sample_index).uniform2();
+        cam.generate_ray_lens(x, y, u, lens, time)
     }
 
     /// Builds a scene from an already parsed (and possibly overridden) description.
