@@ -214,6 +214,7 @@ impl Integrator {
         let mut prev_delta = true;
         let mut prev_pdf = 0.0f32;
         let mut prev_p = ray.o;
+        let mut prev_n = Vec3::ZERO;
         let mut depth = 0u32;
         loop {
             rays += 1;
@@ -233,7 +234,10 @@ impl Integrator {
                 } else {
                     match self.strategy {
                         Strategy::Mis => {
-                            let light_pdf = scene.lights.pdf(geo, hit.tri, ray.time, prev_p, hit.p);
+                            let light_pdf =
+                                scene
+                                    .lights
+                                    .pdf(geo, hit.tri, ray.time, (prev_p, prev_n), hit.p);
                             power_heuristic(prev_pdf, light_pdf)
                         }
                         Strategy::LightOnly => 0.0,
@@ -269,6 +273,7 @@ impl Integrator {
                 && self.strategy != Strategy::BsdfOnly
                 && let Some(ls) = scene.lights.sample(
                     hit.p,
+                    ns,
                     uc_light,
                     u_light,
                     ray.time,
@@ -319,6 +324,7 @@ impl Integrator {
             prev_delta = s.delta;
             prev_pdf = s.pdf;
             prev_p = hit.p;
+            prev_n = ns;
             ray = Ray {
                 o: offset_origin(hit.p, hit.ng, wi_world),
                 d: wi_world,

@@ -189,6 +189,16 @@ impl Distribution1D {
         (i, self.pmf(i))
     }
 
+    /// Samples an item for `u` ∈ [0, 1) and returns it, its probability, and `u` remapped to
+    /// [0, 1) within the item's share of the CDF (so one number can drive a further choice).
+    #[inline]
+    pub fn sample_remap(&self, u: f32) -> (usize, f32, f32) {
+        let (i, pmf) = self.sample(u);
+        let (c0, c1) = (self.cdf[i], self.cdf[i + 1]);
+        let r = if c1 > c0 { (u - c0) / (c1 - c0) } else { 0.5 };
+        (i, pmf, r.clamp(0.0, 1.0 - f32::EPSILON))
+    }
+
     /// Samples the piecewise-constant density on [0, 1) whose n equal cells carry the weights:
     /// returns the point x, its density p(x) = n · pmf(i) and the cell i. Inverting the CDF
     /// inside the cell keeps stratification of `u` (pbrt-v4's `PiecewiseConstant1D::Sample`).

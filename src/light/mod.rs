@@ -13,9 +13,11 @@
 //! sampled in solid angle directly; point and spot lights are delta lights.
 
 mod analytic;
+mod bvh;
 mod environment;
 
 pub use analytic::{PointLight, SUN_ANGULAR_DIAMETER_DEG, Sun};
+pub use bvh::{LightBounds, LightBvh};
 pub use environment::Environment;
 
 use crate::geometry::{Geometry, TriangleAttributes};
@@ -59,7 +61,20 @@ pub struct OtherLights {
     pub points: Vec<PointLight>,
 }
 
-/// The scene's emitters and the distribution used to choose among them.
+/// How next-event estimation chooses a light.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LightSampler {
+    /// In proportion to each light's importance at the shading point, through a light BVH
+    /// ([`LightBvh`]) over the emissive triangles, point and spot lights; the environment, the
+    /// suns and the BVH as a whole by power.
+    #[default]
+    Bvh,
+    /// In proportion to power alone, everywhere the same.
+    Power,
+}
+
+/// The scene's emitters and the distributions used to choose among them.
 ///
 /// Lights are numbered for selection: emissive triangles first (`tris[i]` is light i), then the
 /// environment, then the suns, then the point and spot lights.
@@ -69,7 +84,11 @@ pub struct Lights {
     pub tris: Vec<u32>,
     /// The environment, suns, point and spot lights.
     pub other: OtherLights,
+    /// Power distribution over every light ([`LightSampler::Power`]).
     dist: Distribution1D,
+    /// [`LightSampler::Bvh`]: the BVH and, by power, the choice among the infinite lights
+    /// (their entries first) and the BVH (last entry, if any).
+    tree: Option<(LightBvh, Distribution1D)>,
 }
 
 impl Lights {
@@ -82,6 +101,7 @@ impl Lights {
         textures: &[Texture],
         other: OtherLights,
         scene_radius: f32,
+        sampler: LightSampler,
     ) -> Option<Lights> {
         let mut ids = Vec::new();
         let mut powers: Vec<f64> = Vec::new();
@@ -120,12 +140,80 @@ impl Lights {
             .iter()
             .map(|&p| ((p / max) as f32).max(f32::MIN_POSITIVE))
             .collect();
-        let dist = Distribution1D::new(weights)?;
+        let dist = Distribution1D::new(weights.clone())?;
+        let tree = match sampler {
+            LightSampler::Power => None,
+            LightSampler::Bvh => Self::tree(tris, &ids, &other, &weights),
+        };
         Some(Lights {
             tris: ids,
             other,
             dist,
+            tree,
         })
+    }
+
+    /// The light BVH over triangles, point and spot lights (by relative power `weights`, in
+    /// light order), and the power choice among the infinite lights and the BVH.
+    fn tree(
+        tris: &[TriangleAttributes],
+        ids: &[u32],
+        other: &OtherLights,
+        weights: &[f32],
+    ) -> Option<(LightBvh, Distribution1D)> {
+        let n_inf = other.environment.is_some() as usize + other.suns.len();
+        let mut items: Vec<(u32, LightBounds)> = Vec::new();
+        for (li, &tri) in ids.iter().enumerate() {
+            let t = &tris[tri as usize];
+            let (lo, hi) = (
+                t.p[0].min(t.p[1]).min(t.p[2]),
+                t.p[0].max(t.p[1]).max(t.p[2]),
+            );
+            // A moving emitter's triangle is in rest space: any direction, any nearby place,
+            // importance never zero (unbiased, if less sharp).
+            let moving = t.instance != crate::geometry::STATIC_INSTANCE;
+            items.push((
+                li as u32,
+                LightBounds {
+                    lo,
+                    hi,
+                    phi: weights[li],
+                    w: t.geometric_normal(),
+                    cos_o: if moving { -1.0 } else { 1.0 },
+                    cos_e: if moving { -1.0 } else { 0.0 },
+                    two_sided: false,
+                },
+            ));
+        }
+        let first_point = ids.len() + n_inf;
+        for (k, p) in other.points.iter().enumerate() {
+            let li = first_point + k;
+            let (w, cos_o, cos_e) = match p.spot {
+                None => (Vec3::Y, -1.0, 0.0),
+                Some((axis, cos_total, cos_start)) => {
+                    (axis, cos_start, (cos_total.acos() - cos_start.acos()).cos())
+                }
+            };
+            items.push((
+                li as u32,
+                LightBounds {
+                    lo: p.position,
+                    hi: p.position,
+                    phi: weights[li],
+                    w,
+                    cos_o,
+                    cos_e,
+                    two_sided: false,
+                },
+            ));
+        }
+        let bvh = LightBvh::build(items, weights.len());
+        let mut top: Vec<f32> = weights[ids.len()..ids.len() + n_inf].to_vec();
+        if let Some(b) = &bvh {
+            top.push(b.power().max(f32::MIN_POSITIVE));
+        }
+        let top = Distribution1D::new(top)?;
+        bvh.map(|b| (b, top))
     }
 
     /// Number of lights (emissive triangles, environment, suns, point and spot lights).
@@ -159,14 +247,50 @@ impl Lights {
         self.tris.len() + self.other.environment.is_some() as usize + k
     }
 
-    /// Samples a light as seen from `p_ref` at scene time `time` (moving emitters are where
-    /// they are then). `uc` chooses the light, `u` the point or direction on it. Returns `None`
-    /// for a degenerate configuration (zero distance, grazing, a pole of the environment).
+    /// Chooses a light for point `p` with normal `n`: (light number, probability).
+    #[inline]
+    fn choose(&self, p: Vec3, n: Vec3, uc: f32) -> Option<(usize, f32)> {
+        match &self.tree {
+            None => Some(self.dist.sample(uc)),
+            Some((bvh, top)) => {
+                let (k, pk, u) = top.sample_remap(uc);
+                let n_inf = top.len() - 1;
+                if k < n_inf {
+                    return Some((self.tris.len() + k, pk));
+                }
+                let (li, pb) = bvh.sample(p, n, u)?;
+                Some((li as usize, pk * pb))
+            }
+        }
+    }
+
+    /// The probability with which [`Lights::choose`] picks light `li` at (`p`, `n`).
+    #[inline]
+    fn choice_pmf(&self, p: Vec3, n: Vec3, li: usize) -> f32 {
+        match &self.tree {
+            None => self.dist.pmf(li),
+            Some((bvh, top)) => {
+                let n_inf = top.len() - 1;
+                let first_inf = self.tris.len();
+                if (first_inf..first_inf + n_inf).contains(&li) {
+                    top.pmf(li - first_inf)
+                } else {
+                    top.pmf(n_inf) * bvh.pmf(p, n, li as u32)
+                }
+            }
+        }
+    }
+
+    /// Samples a light as seen from `p_ref` (shading normal `n_ref`, or zero) at scene time
+    /// `time` (moving emitters are where they are then). `uc` chooses the light, `u` the point
+    /// or direction on it. Returns `None` for a degenerate configuration (zero distance,
+    /// grazing, a pole of the environment) or when no light can reach `p_ref`.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn sample(
         &self,
         p_ref: Vec3,
+        n_ref: Vec3,
         uc: f32,
         u: Vec2,
         time: f32,
@@ -174,7 +298,7 @@ impl Lights {
         materials: &[Material],
         textures: &[Texture],
     ) -> Option<LightSample> {
-        let (li, pmf) = self.dist.sample(uc);
+        let (li, pmf) = self.choose(p_ref, n_ref, uc)?;
         if li < self.tris.len() {
             return self.sample_triangle(li, pmf, p_ref, u, time, geo, materials, textures);
         }
@@ -277,21 +401,31 @@ impl Lights {
         if let Some(env) = &self.other.environment {
             let le = env.radiance(d);
             if le.max_element() > 0.0 {
-                l += le * weight(self.dist.pmf(self.env_index()) * env.pdf(d));
+                let pmf = self.choice_pmf(Vec3::ZERO, Vec3::ZERO, self.env_index());
+                l += le * weight(pmf * env.pdf(d));
             }
         }
         for (k, sun) in self.other.suns.iter().enumerate() {
             if sun.contains(d) {
-                l += sun.radiance * weight(self.dist.pmf(self.sun_index(k)) * sun.pdf(d));
+                let pmf = self.choice_pmf(Vec3::ZERO, Vec3::ZERO, self.sun_index(k));
+                l += sun.radiance * weight(pmf * sun.pdf(d));
             }
         }
         l
     }
 
     /// Solid-angle pdf with which [`Lights::sample`] would pick point `p_light` on emitter
-    /// triangle `tri` (whose `light` index is set) from `p_ref` at scene time `time`.
+    /// triangle `tri` (whose `light` index is set) from `p_ref` with normal `n_ref` at scene time
+    /// `time`.
     #[inline]
-    pub fn pdf(&self, geo: &Geometry, tri: u32, time: f32, p_ref: Vec3, p_light: Vec3) -> f32 {
+    pub fn pdf(
+        &self,
+        geo: &Geometry,
+        tri: u32,
+        time: f32,
+        (p_ref, n_ref): (Vec3, Vec3),
+        p_light: Vec3,
+    ) -> f32 {
         let light = geo.tris[tri as usize].light;
         if light == u32::MAX {
             return 0.0;
@@ -306,6 +440,6 @@ impl Lights {
         if cos_l <= 1e-7 || area <= 0.0 {
             return 0.0;
         }
-        self.dist.pmf(light as usize) / area * dist2 / cos_l
+        self.choice_pmf(p_ref, n_ref, light as usize) / area * dist2 / cos_l
     }
 }

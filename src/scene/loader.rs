@@ -186,6 +186,8 @@ pub struct RenderDesc {
     pub seed: Option<u64>,
     /// cd/m² per unit radiance.
     pub luminance_scale: Option<f32>,
+    /// "bvh" (default) or "power".
+    pub light_sampler: Option<crate::light::LightSampler>,
 }
 
 /// `[[mesh]]`: an OBJ file and an optional transform.
@@ -384,6 +386,7 @@ impl SceneDescription {
             max_depth: self.render.max_depth.unwrap_or(d.max_depth),
             seed: self.render.seed.unwrap_or(d.seed),
             luminance_scale: self.render.luminance_scale.unwrap_or(d.luminance_scale),
+            light_sampler: self.render.light_sampler.unwrap_or(d.light_sampler),
         }
     }
 
@@ -425,10 +428,17 @@ impl SceneDescription {
         self.check_emission(&b, &settings)?;
         let other = super::lights::other_lights(&self, settings.luminance_scale)?;
         let radius = bounding_radius(&b.tris);
-        let lights = Lights::build(&mut b.tris, &b.materials, &b.textures, other, radius)
-            .ok_or_else(|| SceneError::NoLights {
-                path: self.path.clone(),
-            })?;
+        let lights = Lights::build(
+            &mut b.tris,
+            &b.materials,
+            &b.textures,
+            other,
+            radius,
+            settings.light_sampler,
+        )
+        .ok_or_else(|| SceneError::NoLights {
+            path: self.path.clone(),
+        })?;
         let time_range = match animation {
             Some(a) => (
                 a.frame(a.frame_start).open_s as f32,

@@ -65,6 +65,8 @@ pub struct RenderSettings {
     /// cd/m² per unit of scene radiance (default 683, the luminous efficacy at 555 nm, which
     /// makes radiance in W·sr⁻¹·m⁻² map to physical luminance).
     pub luminance_scale: f32,
+    /// How next-event estimation chooses a light (default: the light BVH).
+    pub light_sampler: crate::light::LightSampler,
 }
 
 impl Default for RenderSettings {
@@ -74,6 +76,7 @@ impl Default for RenderSettings {
             max_depth: 64,
             seed: 0,
             luminance_scale: perception::photometry::LUMINOUS_EFFICACY_LM_PER_W,
+            light_sampler: crate::light::LightSampler::Bvh,
         }
     }
 }
