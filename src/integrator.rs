@@ -6,8 +6,10 @@
 //! heuristic (β = 2) against the other strategy's pdf for the same direction. Emitters are seen
 //! directly by camera rays and after delta bounces with weight 1. Russian roulette (Arvo & Kirk
 //! 1990) starts after [`RR_START_DEPTH`] bounces with survival probability min(1, max channel of
-//! the throughput), floored at 5 %, so the estimator stays unbiased while `max_depth` only stops
-//! pathological paths.
+//! the throughput × the η² of the refractions crossed), floored at 5 %, so the estimator stays
+//! unbiased while `max_depth` only stops pathological paths. Starting it at bounce 5 instead (as
+//! Mitsuba does) matched Mitsuba's per-sample relMSE on the Cornell box but took 1.19–1.29×
+//! longer: equal efficiency, so the cheaper start stays.
 
 use crate::geometry::{Hit, Ray, offset_origin};
 use crate::light::LightSample;
@@ -215,6 +217,7 @@ impl Integrator {
         let mut prev_pdf = 0.0f32;
         let mut prev_p = ray.o;
         let mut prev_n = Vec3::ZERO;
+        let mut eta_scale = 1.0f32;
         let mut depth = 0u32;
         loop {
             rays += 1;
@@ -333,8 +336,11 @@ impl Integrator {
             };
             depth += 1;
 
+            eta_scale *= s.eta * s.eta;
             if depth >= RR_START_DEPTH {
-                let q = beta.max_element().clamp(0.05, 1.0);
+                // Survival follows the throughput with the refractions' 1/η² compression
+                // undone (pbrt-v4's etaScale): a path inside glass is not dimmer, only denser.
+                let q = (beta * eta_scale).max_element().clamp(0.05, 1.0);
                 if rng.uniform() >= q {
                     break;
                 }

@@ -441,3 +441,48 @@ file = "l.obj"
         p.2 / b.2
     );
 }
+
+/// A lossless glass cube (η = 1.5) under a uniform environment L is invisible in radiance:
+/// every path through it, however many internal reflections, carries L out (the 1/η² radiance
+/// compression on entering undone on leaving). This exercises refraction, total internal
+/// reflection and Russian roulette with the refractions' η² undone.
+#[test]
+fn glass_furnace() {
+    let dir = tempdir();
+    let l = 0.8f64;
+    let toml = format!(
+        r#"
+[camera]
+position = [0.6, 0.7, 3.0]
+look_at = [0.0, 0.0, 0.0]
+vfov_deg = 25.0
+resolution = [8, 8]
+[render]
+seed = 4
+[[mesh]]
+file = "g.obj"
+[[light]]
+type = "environment"
+radiance = [{l}, {l}, {l}]
+"#
+    );
+    write_files(
+        dir.path(),
+        &[
+            (
+                "g.obj",
+                &format!("mtllib m.mtl\n{}", cube_obj(0.5, false, "glass", 0)),
+            ),
+            ("m.mtl", "newmtl glass\nNi 1.5\nillum 7\n"),
+            ("scene.toml", &toml),
+        ],
+    );
+    let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
+    let film = render(&scene, Strategy::Mis, 512);
+    let (mean, se) = image_mean_and_se(&film);
+    assert!(
+        (mean - l).abs() <= 4.0 * se.max(1e-7),
+        "{mean} ± {se} vs {l}"
+    );
+    assert_pixels(&film, "glass", 0.05, |_, _| l);
+}

@@ -53,6 +53,7 @@ impl Dielectric {
                 wi,
                 pdf: r,
                 delta: true,
+                eta: 1.0,
             });
         }
         // Refraction. eta is the index of the side wi enters relative to the side of wo.
@@ -69,6 +70,7 @@ impl Dielectric {
             wi,
             pdf: t,
             delta: true,
+            eta,
         })
     }
 }

@@ -188,6 +188,7 @@ impl Glossy {
             wi,
             pdf,
             delta: false,
+            eta: 1.0,
         })
     }
 }

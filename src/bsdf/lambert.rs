@@ -47,6 +47,7 @@ impl Lambert {
             wi,
             pdf,
             delta: false,
+            eta: 1.0,
         })
     }
 }

@@ -21,6 +21,7 @@ impl Mirror {
             wi,
             pdf: 1.0,
             delta: true,
+            eta: 1.0,
         })
     }
 }

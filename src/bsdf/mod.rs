@@ -42,6 +42,9 @@ pub struct BsdfSample {
     pub pdf: f32,
     /// True when `wi` was chosen by a delta lobe.
     pub delta: bool,
+    /// Relative index of refraction η_t/η_i crossed by a refraction (1 for reflection): `f`
+    /// holds the radiance compression 1/η² (Veach 1997 §5.2), which Russian roulette undoes.
+    pub eta: f32,
 }
 
 /// A BSDF at one shading point, with its textures already looked up.

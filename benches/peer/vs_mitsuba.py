@@ -1,0 +1,128 @@
+#!/usr/bin/env python3
+"""aleph against Mitsuba 3 in time to equal error, measured in one run.
+
+Setup (once; nothing here is needed by the tests or CI): ``bash benches/peer/setup.sh``
+creates ``benches/peer/.venv`` with mitsuba, numpy and flip-evaluator, and installs Debian's
+``libllvm19`` (as root) for Mitsuba's vectorised ``llvm_ad_rgb`` variant. Then::
+
+    benches/peer/.venv/bin/python benches/peer/vs_mitsuba.py [--variant llvm_ad_rgb]
+        [--res 256] [--spp 16 64] [--rounds 5] [--max-depth 8] [--ref-spp 8192]
+
+On the bundled Cornell box (McGuire's OBJ, the same camera, lights, depth and box filter in
+both renderers), it renders a common reference with Mitsuba (``--ref-spp``, cached in
+``target/peer/``), then, for each budget, alternates aleph (``render --sampler uniform``, the
+render time from its own summary) and Mitsuba (``mi.render`` timed after a warm-up, so the
+LLVM kernel compile is not counted) for ``--rounds`` rounds. Each image is scored against the
+reference by relMSE (mean of (x − r)² / (r² + 0.01), per channel) and FLIP (mean, 67 ppd,
+via ``flip-evaluator`` on the sRGB images at exposure 0). For Monte Carlo noise relMSE falls as
+1/time, so each renderer's efficiency is 1 / (relMSE × time), and FLIP (an amplitude) as
+1/sqrt(time), giving 1 / (FLIP² × time); the ratio aleph/Mitsuba > 1 means aleph reaches equal
+error sooner. Prints a table and writes ``target/peer/vs_mitsuba.csv``.
+"""
+import argparse, csv, os, re, subprocess, sys, tempfile, time
+
+import numpy as np
+import mitsuba as mi
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.normpath(os.path.join(HERE, "..", ".."))
+sys.path.insert(0, HERE)
+OUT = os.path.join(ROOT, "target", "peer")
+ALEPH = os.path.join(ROOT, "target", "release", "aleph")
+SCENE = os.path.join(ROOT, "scenes", "cornell-box", "scene.toml")
+
+
+def rel_mse(x, r):
+    return float(np.mean((x - r) ** 2 / (r * r + 1e-2)))
+
+
+def flip_mean(x, r):
+    try:
+        import flip_evaluator as flip
+    except ImportError:
+        return float("nan")
+    srgb = lambda a: np.where(a <= 0.0031308, 12.92 * a, 1.055 * np.power(np.clip(a, 0.0031308, None), 1 / 2.4) - 0.055)
+    ref = np.clip(srgb(np.clip(r, 0, 1)), 0, 1).astype(np.float32)
+    test = np.clip(srgb(np.clip(x, 0, 1)), 0, 1).astype(np.float32)
+    _, mean, _ = flip.evaluate(ref, test, "LDR")
+    return float(mean)
+
+
+def read_exr_rgb(path):
+    """R, G, B of an EXR's root layer (aleph's EXRs carry spp and other channels beside them)."""
+    root = dict(mi.Bitmap(path).split())["<root>"]
+    names = [root.struct_()[i].name for i in range(root.channel_count())]
+    arr = np.array(root, dtype=np.float32).reshape(root.height(), root.width(), len(names))
+    return arr[:, :, [names.index(c) for c in ("R", "G", "B")]]
+
+
+def aleph_render(spp, res, depth, seed, tmp):
+    out = os.path.join(tmp, f"a{seed}")
+    p = subprocess.run(
+        [ALEPH, "render", SCENE, "--sampler", "uniform", "--spp", str(spp), "--resolution", f"{res}x{res}",
+         "--max-depth", str(depth), "--seed", str(seed), "-o", out],
+        capture_output=True, text=True, check=True)
+    line = p.stdout + p.stderr
+    m = re.search(r", ([0-9.]+) s \(first pass", line)
+    secs = float(m.group(1))
+    return read_exr_rgb(out + ".exr"), secs
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--res", type=int, default=256)
+    ap.add_argument("--spp", type=int, nargs="+", default=[16, 64])
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--max-depth", type=int, default=8)
+    ap.add_argument("--ref-spp", type=int, default=8192)
+    args = ap.parse_args()
+    mi.set_variant(args.variant)
+    import mitsuba_cornell as mc
+    os.makedirs(OUT, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        # Mitsuba's path tracer counts depth as vertices from the camera (max_depth = bounces + 1).
+        d = mc.aleph_box(args.res, args.max_depth + 1, tmp)
+        scene = mi.load_dict(d)
+        ref_path = os.path.join(OUT, f"ref-{args.res}-{args.max_depth}-{args.ref_spp}.exr")
+        if not os.path.exists(ref_path):
+            acc = None
+            chunks = max(1, args.ref_spp // 1024)
+            for k in range(chunks):
+                img = np.array(mi.render(scene, spp=args.ref_spp // chunks, seed=10_000 + k))[:, :, :3]
+                acc = img if acc is None else acc + img
+                print(f"reference {k + 1}/{chunks}", file=sys.stderr)
+            mi.Bitmap((acc / chunks).astype(np.float32)).write(ref_path)
+        ref = read_exr_rgb(ref_path)
+        mi.render(scene, spp=4)  # compile the kernel
+        rows = []
+        for spp in args.spp:
+            for r in range(args.rounds):
+                img_a, t_a = aleph_render(spp, args.res, args.max_depth, 100 + r, tmp)
+                t0 = time.perf_counter()
+                img_m = np.array(mi.render(scene, spp=spp, seed=100 + r))[:, :, :3]
+                t_m = time.perf_counter() - t0
+                row = dict(spp=spp, round=r, aleph_s=t_a, mitsuba_s=t_m,
+                           aleph_relmse=rel_mse(img_a, ref), mitsuba_relmse=rel_mse(img_m, ref),
+                           aleph_flip=flip_mean(img_a, ref), mitsuba_flip=flip_mean(img_m, ref))
+                row["eff_relmse"] = (row["mitsuba_relmse"] * t_m) / (row["aleph_relmse"] * t_a)
+                row["eff_flip"] = (row["mitsuba_flip"] ** 2 * t_m) / (row["aleph_flip"] ** 2 * t_a)
+                rows.append(row)
+                print(f"{spp:5d} spp round {r}: aleph {t_a:.3f} s relMSE {row['aleph_relmse']:.5f} FLIP {row['aleph_flip']:.4f} | "
+                      f"mitsuba {t_m:.3f} s relMSE {row['mitsuba_relmse']:.5f} FLIP {row['mitsuba_flip']:.4f} | "
+                      f"time to equal relMSE aleph/mitsuba advantage {row['eff_relmse']:.2f}x", flush=True)
+        with open(os.path.join(OUT, "vs_mitsuba.csv"), "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+            w.writeheader()
+            w.writerows(rows)
+        print(f"\nmitsuba {mi.__version__} {args.variant}, Cornell box {args.res}², depth {args.max_depth}, reference {args.ref_spp} spp")
+        print("spp | aleph s | mitsuba s | samples/s ratio | relMSE aleph | relMSE mitsuba | eq-relMSE advantage | eq-FLIP advantage (medians)")
+        for spp in args.spp:
+            sel = [r for r in rows if r["spp"] == spp]
+            med = lambda k: float(np.median([r[k] for r in sel]))
+            print(f"{spp} | {med('aleph_s'):.3f} | {med('mitsuba_s'):.3f} | {med('mitsuba_s') / med('aleph_s'):.2f} | "
+                  f"{med('aleph_relmse'):.5f} | {med('mitsuba_relmse'):.5f} | {med('eff_relmse'):.2f}x | {med('eff_flip'):.2f}x")
+
+
+if __name__ == "__main__":
+    main()
