@@ -450,7 +450,9 @@ fn render_and_write(
     stem: &Path,
     args: &RenderArgs,
 ) -> anyhow::Result<ExitCode> {
+    let start = std::time::Instant::now();
     let mut scene = Scene::load_description(desc)?;
+    eprintln!("{}", load_line(&scene, start.elapsed()));
     if let Some(part) = args.part {
         return super::merge::render_part_file(scene, stem, args, part);
     }
@@ -528,6 +530,29 @@ fn time_split(r: &AdaptiveResult) -> String {
         parts.push(format!("perception {:.2} s", r.decision_time.as_secs_f64()));
     }
     parts.join(", ")
+}
+
+/// What loading cost: triangles, lights, wall time of the whole load and of the BVH build.
+pub(super) fn load_line(scene: &Scene, load: std::time::Duration) -> String {
+    let l = &scene.lights;
+    let mut lights = vec![format!("{} emissive triangles", l.tris.len())];
+    if l.other.environment.is_some() {
+        lights.push("an environment".into());
+    }
+    if !l.other.suns.is_empty() {
+        lights.push(format!("{} sun(s)", l.other.suns.len()));
+    }
+    if !l.other.points.is_empty() {
+        lights.push(format!("{} point/spot light(s)", l.other.points.len()));
+    }
+    format!(
+        "{}: {} triangles, {}; loaded in {:.2} s (BVH build {:.2} s)",
+        scene.path.display(),
+        scene.geometry.len(),
+        lights.join(", "),
+        load.as_secs_f64(),
+        scene.geometry.build_time.as_secs_f64()
+    )
 }
 
 /// The one-line summary of a render.
