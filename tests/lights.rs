@@ -486,3 +486,65 @@ radiance = [{l}, {l}, {l}]
     );
     assert_pixels(&film, "glass", 0.05, |_, _| l);
 }
+
+/// Bad light entries are refused with the scene file, the light's number and what is wrong.
+#[test]
+fn bad_lights_are_refused_with_their_number() {
+    let dir = tempdir();
+    let obj = format!("mtllib m.mtl\n{}", cube_obj(1.0, false, "a", 0));
+    let cases = [
+        (
+            "type = \"environment\"\nfile = \"missing.hdr\"",
+            "missing.hdr",
+        ),
+        ("type = \"environment\"", "give a file"),
+        (
+            "type = \"environment\"\nradiance = [1.0, 1.0, 1.0]\n[[light]]\ntype = \"environment\"\nradiance = [1.0, 1.0, 1.0]",
+            "at most one environment",
+        ),
+        (
+            "type = \"sun\"\ndirection = [0.0, 0.0, 0.0]\nirradiance = [1.0, 1.0, 1.0]",
+            "direction",
+        ),
+        (
+            "type = \"sun\"\ndirection = [0.0, 1.0, 0.0]\nirradiance = [1.0, 1.0, 1.0]\nangular_diameter_deg = 0.0",
+            "angular_diameter_deg",
+        ),
+        (
+            "type = \"point\"\nposition = [0.0, 1.0, 0.0]\nintensity = [-1.0, 1.0, 1.0]",
+            "intensity",
+        ),
+        (
+            "type = \"spot\"\nposition = [0.0, 1.0, 0.0]\nlook_at = [0.0, 1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]",
+            "look_at",
+        ),
+        (
+            "type = \"spot\"\nposition = [0.0, 1.0, 0.0]\nlook_at = [0.0, 0.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\ncone_angle_deg = 10.0\ncone_delta_deg = 20.0",
+            "cone_delta_deg",
+        ),
+    ];
+    for (k, (light, needle)) in cases.iter().enumerate() {
+        let toml = format!(
+            "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nvfov_deg = 40.0\n\
+             resolution = [4, 4]\n[[mesh]]\nfile = \"c.obj\"\n[[light]]\n{light}\n"
+        );
+        let name = format!("s{k}.toml");
+        write_files(
+            dir.path(),
+            &[
+                ("c.obj", &obj),
+                ("m.mtl", "newmtl a\nKd 0.5 0.5 0.5\n"),
+                (&name, &toml),
+            ],
+        );
+        let err = match Scene::load(&dir.path().join(&name)) {
+            Ok(_) => panic!("case {k} loaded"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            err.contains(&name) && err.contains(needle),
+            "case {k}: {err}"
+        );
+        assert!(err.contains("[[light]] #"), "case {k}: {err}");
+    }
+}

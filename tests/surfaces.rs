@@ -276,3 +276,58 @@ file = "e.obj"
     );
     assert!(se < 0.02 * totals[0].0, "se {se}");
 }
+
+/// Every MTL statement aleph ignores is reported, once per MTL file, with how many materials
+/// give it; a `usemtl` without an MTL entry is reported too; statements aleph reads are not.
+#[test]
+fn ignored_mtl_statements_are_reported_once() {
+    let dir = tempdir();
+    let obj = format!(
+        "mtllib m.mtl\n{}usemtl ghost\nf 1 2 3\n",
+        cube_obj(1.0, false, "a", 0)
+    );
+    let mtl = "newmtl a\nKa 0.1 0.1 0.1\nKd 0.5 0.5 0.5\nTf 0.2 0.2 0.2\nPr 0.4\nKe 1 1 1\n\
+               newmtl b\nKa 0.1 0.1 0.1\nKd 0.5 0.5 0.5\n# d 0.5\n";
+    let toml = "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nvfov_deg = 40.0\n\
+                resolution = [4, 4]\n[[mesh]]\nfile = \"c.obj\"\n";
+    write_files(
+        dir.path(),
+        &[("c.obj", &obj), ("m.mtl", mtl), ("scene.toml", toml)],
+    );
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args([
+            "render",
+            "scene.toml",
+            "--sampler",
+            "uniform",
+            "--spp",
+            "1",
+            "-o",
+            "out",
+        ])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    let lines: Vec<&str> = err
+        .lines()
+        .filter(|l| l.contains("ignored MTL statements"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(
+        lines[0].contains("Ka (2)") && lines[0].contains("Pr (1)") && lines[0].contains("Tf (1)"),
+        "{}",
+        lines[0]
+    );
+    assert!(
+        !lines[0].contains("Kd") && !lines[0].contains("Ke") && !lines[0].contains("# d"),
+        "{}",
+        lines[0]
+    );
+    assert!(
+        err.lines()
+            .any(|l| l.contains("usemtl names no material") && l.contains("ghost")),
+        "{err}"
+    );
+}

@@ -155,8 +155,11 @@ pub struct LightBvh {
     trail: Vec<u64>,
 }
 
-/// Depth beyond which the build splits by count (balanced), so that trails fit 64 bits.
-const MAX_SAH_DEPTH: u32 = 40;
+/// Depth beyond which the build splits by count (balanced), so that trails fit 64 bits
+/// whatever the number of lights: 62 − (bits of n) (40 or more below 2 M lights).
+fn max_sah_depth(n: usize) -> u32 {
+    62 - (usize::BITS - n.max(1).leading_zeros()).min(62)
+}
 
 impl LightBvh {
     /// Builds over `lights` = (the caller's light index, its bounds); `count` is one more than
@@ -169,7 +172,8 @@ impl LightBvh {
             nodes: Vec::with_capacity(2 * lights.len()),
             trail: vec![u64::MAX; count],
         };
-        bvh.build_node(&mut lights, 0, 0);
+        let limit = max_sah_depth(lights.len());
+        bvh.build_node(&mut lights, 0, 0, limit);
         Some(bvh)
     }
 
@@ -178,6 +182,7 @@ impl LightBvh {
         lights: &mut [(u32, LightBounds)],
         trail: u64,
         depth: u32,
+        limit: u32,
     ) -> LightBounds {
         if lights.len() == 1 {
             let (li, b) = lights[0];
@@ -189,7 +194,7 @@ impl LightBvh {
             self.trail[li as usize] = trail;
             return b;
         }
-        let mid = split(lights, depth);
+        let mid = split(lights, depth >= limit);
         let me = self.nodes.len();
         self.nodes.push(Node {
             bounds: lights[0].1,
@@ -197,9 +202,9 @@ impl LightBvh {
             leaf: false,
         });
         let (left, right) = lights.split_at_mut(mid);
-        let a = self.build_node(left, trail, depth + 1);
+        let a = self.build_node(left, trail, depth + 1, limit);
         let second = self.nodes.len() as u32;
-        let b = self.build_node(right, trail | (1u64 << depth), depth + 1);
+        let b = self.build_node(right, trail | (1u64 << depth), depth + 1, limit);
         self.nodes[me].child_or_light = second;
         self.nodes[me].bounds = a.union(&b);
         self.nodes[me].bounds
@@ -274,8 +279,8 @@ impl LightBvh {
 
 /// Reorders `lights` and returns where to split them in two non-empty halves: the cheapest of
 /// 12 centroid buckets on each axis by [`cost`] (pbrt-v4's `buildBVH`), or the median when that
-/// fails or the tree is deep.
-fn split(lights: &mut [(u32, LightBounds)], depth: u32) -> usize {
+/// fails or `balanced` is asked for (the tree is deep).
+fn split(lights: &mut [(u32, LightBounds)], balanced: bool) -> usize {
     let n = lights.len();
     let (mut clo, mut chi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for (_, b) in lights.iter() {
@@ -298,7 +303,7 @@ fn split(lights: &mut [(u32, LightBounds)], depth: u32) -> usize {
     } else {
         2
     };
-    if depth >= MAX_SAH_DEPTH || ext.max_element() <= 0.0 {
+    if balanced || ext.max_element() <= 0.0 {
         return median(lights, widest);
     }
     const BUCKETS: usize = 12;
