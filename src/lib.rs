@@ -3,7 +3,8 @@
 //! A physically based path tracer that renders only what a person can see.
 //!
 //! The renderer side of the workspace: scene loading ([`scene`]), geometry and the BVH
-//! ([`geometry`]), the pinhole [`camera`], [`bsdf`]s and [`material`]s, area [`light`]s, the path
+//! ([`geometry`]), the [`camera`] (pinhole or thin lens), [`bsdf`]s and [`material`]s,
+//! [`light`]s (emissive triangles, environment, sun, point and spot, a light BVH), the path
 //! tracer ([`integrator`]), the sample buffers ([`film`]), the parallel driver ([`render`]) and
 //! image [`output`]. The human-visual-system models live in the `perception` crate.
 //!
