@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 pub enum Encoding {
     /// Linear scene-referred values (EXR, Radiance HDR): cd/m² = Y × luminance scale.
     Linear,
-    /// sRGB-encoded display values in [0,1] (PNG, JPEG), already decoded to linear here;
+    /// sRGB-encoded display values in [0, 1] (PNG, JPEG), already decoded to linear here;
     /// white is shown at [`perception::photometry::SRGB_WHITE_CD_M2`].
     DisplaySrgb,
 }
@@ -124,7 +124,7 @@ fn extension(path: &Path) -> String {
 }
 
 /// Reads an image. EXR and HDR are linear; PNG and JPEG are decoded from sRGB to linear display
-/// values in [0,1]. Negative values are clamped to 0 and counted; NaN or infinite values are an
+/// values in [0, 1]. Negative values are clamped to 0 and counted; NaN or infinite values are an
 /// error.
 ///
 /// # Errors

@@ -106,12 +106,12 @@ pub struct Material {
     pub name: String,
     /// Scattering class.
     pub kind: MaterialKind,
-    /// Diffuse reflectance (`Kd`), linear RGB in [0,1].
+    /// Diffuse reflectance (`Kd`), linear RGB in [0, 1].
     pub kd: ColorSource,
-    /// Specular reflectance (`Ks`), linear RGB in [0,1].
+    /// Specular reflectance (`Ks`), linear RGB in [0, 1].
     pub ks: ColorSource,
     /// Transmission filter of a dielectric (`[materials.NAME] transmittance`; white from an MTL),
-    /// linear RGB in [0,1].
+    /// linear RGB in [0, 1].
     pub transmittance: Vec3,
     /// Emitted radiance (W·sr⁻¹·m⁻²) on the front side, if the material emits.
     pub emission: Option<ColorSource>,

@@ -417,7 +417,7 @@ pub fn write_png(
         })
 }
 
-/// sRGB OETF (IEC 61966-2-1): linear display value in [0,1] to encoded [0,1].
+/// sRGB OETF (IEC 61966-2-1): linear display value in [0, 1] to encoded [0, 1].
 #[inline]
 pub fn linear_to_srgb(c: f32) -> f32 {
     let c = c.clamp(0.0, 1.0);
@@ -428,7 +428,7 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
-/// Display-linear RGB in [0,1] (interleaved) → 8-bit sRGB, rounding to nearest.
+/// Display-linear RGB in [0, 1] (interleaved) → 8-bit sRGB, rounding to nearest.
 pub fn encode_srgb8(display_rgb: &[f32]) -> Vec<u8> {
     display_rgb
         .iter()
@@ -436,7 +436,7 @@ pub fn encode_srgb8(display_rgb: &[f32]) -> Vec<u8> {
         .collect()
 }
 
-/// The simplest tone mapping: multiply linear radiance by 2^`exposure_ev` and clip to [0,1]
+/// The simplest tone mapping: multiply linear radiance by 2^`exposure_ev` and clip to [0, 1]
 /// (the seed paper's "constant scaling", Figure 4).
 pub fn expose(rgb: &[f32], exposure_ev: f32) -> Vec<f32> {
     let k = exposure_ev.exp2();

@@ -34,7 +34,7 @@
 //!
 //! # Where visibility is judged
 //! [`Visibility::Display`] (default): on the image as displayed, in display cd/m² — the current
-//! image's tone curve is frozen each pass ([`FrozenToneMap`]) and applied to the image and both
+//! image's tone curve is frozen each pass ([`crate::display::FrozenToneMap`]) and applied to the image and both
 //! half-buffers. [`Visibility::Scene`]: in scene luminance, cd/m² = Y × the scene's
 //! `luminance_scale`, as Ramasubramanian et al. did.
 //!

@@ -115,9 +115,9 @@ impl Ggx {
 /// and returns the mixture pdf (one-sample MIS over the two lobes).
 #[derive(Clone, Copy, Debug)]
 pub struct Glossy {
-    /// Diffuse reflectance, [0,1] per channel.
+    /// Diffuse reflectance, [0, 1] per channel.
     pub kd: Vec3,
-    /// Specular reflectance (Fresnel at all angles), [0,1] per channel.
+    /// Specular reflectance (Fresnel at all angles), [0, 1] per channel.
     pub ks: Vec3,
     /// The specular lobe's microfacet distribution.
     pub ggx: Ggx,
