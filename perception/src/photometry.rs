@@ -92,7 +92,7 @@ pub fn scotopic_luminance(x: f32, y: f32, z: f32) -> f32 {
 /// Y_s / Y of [`scotopic_luminance`] for equal-energy white (X = Y = Z): 1.33 · 3 − 1.68.
 pub const SCOTOPIC_EQUAL_ENERGY_RATIO: f32 = 2.31;
 
-/// Decodes an sRGB-encoded value in [0,1] to linear (IEC 61966-2-1 EOTF).
+/// Decodes an sRGB-encoded value in [0, 1] to linear (IEC 61966-2-1 EOTF).
 #[inline]
 pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {

@@ -3,7 +3,7 @@
 //! Greenberg 2001.
 //!
 //! ΔL_T(x) = ΔL_TVI(L_a(x)) · F(x), with ΔL_TVI Ward's combined TVI
-//! ([`tvi_ward97`](crate::tvi::tvi_ward97)) at the local adaptation luminance L_a, and F ≥ 1 the
+//! ([`crate::tvi::tvi_ward97`]) at the local adaptation luminance L_a, and F ≥ 1 the
 //! elevation by spatial frequency, retinal velocity and visual masking.
 //!
 //! # Procedure (an implementation of aleph's `docs/DESIGN.md` §6)
