@@ -100,8 +100,10 @@ pub struct Lights {
 
 impl Lights {
     /// Collects emissive triangles, assigns their `light` indices, and joins them with `other`
-    /// into one power distribution. `scene_radius` is the radius of a sphere bounding the
-    /// scene (world units; for the power of infinite lights). Returns `None` if nothing emits.
+    /// into one power distribution, and, for [`LightSampler::Bvh`] with at least
+    /// [`MIN_BVH_LIGHTS`] triangles, point and spot lights, a light BVH over those. `scene_radius`
+    /// is the radius of a sphere bounding the scene (world units; for the power of infinite
+    /// lights). Returns `None` if nothing emits.
     pub fn build(
         tris: &mut [TriangleAttributes],
         materials: &[Material],
