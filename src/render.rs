@@ -3,7 +3,9 @@
 use crate::film::{Film, PixelStats};
 use crate::integrator::{Integrator, Strategy};
 use crate::rng::Rng;
+use crate::scene::SampleGenerator;
 use crate::scene::Scene;
+use crate::sobol::{SampleSource, SobolSampler};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -47,10 +49,18 @@ fn sample_pixel(
 ) {
     let index = y as u64 * scene.camera.width as u64 + x as u64;
     for _ in 0..count {
-        let time = scene.sample_time(seed, index, px.n as u64);
-        let mut rng = Rng::for_sample(seed, index, px.n as u64);
-        let ray = scene.camera_ray(seed, (x, y), px.n as u64, rng.uniform2(), time);
-        let r = integrator.radiance(scene, ray, &mut rng);
+        let n = px.n as u64;
+        let time = scene.sample_time(seed, index, n);
+        let r = match scene.settings.sample_generator {
+            SampleGenerator::Sobol => {
+                let rng = SobolSampler::for_sample(seed, index, n);
+                trace(scene, integrator, seed, (x, y), n, time, rng)
+            }
+            SampleGenerator::Independent => {
+                let rng = Rng::for_sample(seed, index, n);
+                trace(scene, integrator, seed, (x, y), n, time, rng)
+            }
+        };
         *rays += r.rays as u64;
         let v = if r.radiance.is_finite() {
             r.radiance
@@ -60,6 +70,22 @@ fn sample_pixel(
         };
         px.add(v);
     }
+}
+
+/// One camera sample: its ray through the pixel (sub-pixel offset from the sample's first two
+/// dimensions) and the path traced from it.
+#[inline]
+fn trace(
+    scene: &Scene,
+    integrator: &Integrator,
+    seed: u64,
+    pixel: (u32, u32),
+    n: u64,
+    time: f32,
+    mut rng: impl SampleSource,
+) -> crate::integrator::PathResult {
+    let ray = scene.camera_ray(seed, pixel, n, rng.uniform2(), time);
+    integrator.radiance(scene, ray, &mut rng)
 }
 
 /// Adds `counts[i]` samples to pixel i of `film` (row-major), in parallel over rows. The result

@@ -65,6 +65,7 @@ look_at = [0.0, 0.0, 0.0]
 vfov_deg = 30.0
 resolution = [10, 10]
 [render]
+sample_generator = "independent"
 max_depth = 200
 seed = 5
 [[mesh]]
@@ -144,6 +145,7 @@ up = [0.0, 0.0, -1.0]
 vfov_deg = 0.1
 resolution = [6, 6]
 [render]
+sample_generator = "independent"
 max_depth = 1
 seed = 9
 [[mesh]]
@@ -314,6 +316,7 @@ look_at = [0.2, 0.0, 0.0]
 vfov_deg = 45.0
 resolution = [12, 12]
 [render]
+sample_generator = "independent"
 seed = 2
 [[mesh]]
 file = "s.obj"
@@ -395,6 +398,7 @@ up = [0.0, 0.0, -1.0]
 vfov_deg = 60.0
 resolution = [24, 24]
 [render]
+sample_generator = "independent"
 max_depth = 1
 light_sampler = "{sampler}"
 [[mesh]]
@@ -458,6 +462,7 @@ look_at = [0.0, 0.0, 0.0]
 vfov_deg = 25.0
 resolution = [8, 8]
 [render]
+sample_generator = "independent"
 seed = 4
 [[mesh]]
 file = "g.obj"
@@ -580,6 +585,7 @@ look_at = [0.0, 0.0, 0.0]
 vfov_deg = 50.0
 resolution = [10, 10]
 [render]
+sample_generator = "independent"
 seed = 8
 [[mesh]]
 file = "s.obj"

@@ -28,6 +28,8 @@ fn cornell(seed: u64) -> Scene {
     let mut desc = SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
     desc.camera.resolution = [32, 32];
     desc.render.seed = Some(seed);
+    // Per-pixel z-tests assume independent samples (σ/√n).
+    desc.render.sample_generator = Some(aleph::scene::SampleGenerator::Independent);
     Scene::load_description(desc).unwrap()
 }
 

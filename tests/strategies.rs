@@ -10,6 +10,8 @@ use aleph::scene::{Scene, SceneDescription};
 fn scene() -> Scene {
     let mut desc = SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
     desc.camera.resolution = [16, 16];
+    // Per-pixel z-tests assume independent samples (σ/√n).
+    desc.render.sample_generator = Some(aleph::scene::SampleGenerator::Independent);
     let extra: SceneDescription = SceneDescription::parse(
         r#"
 [camera]

@@ -38,6 +38,7 @@ up = [0.0, 0.0, -1.0]
 vfov_deg = 20.0
 resolution = [16, 4]
 [render]
+sample_generator = "independent"
 max_depth = 1
 [[mesh]]
 file = "s.obj"
@@ -130,6 +131,7 @@ up = [0.0, 0.0, -1.0]
 vfov_deg = 5.0
 resolution = [4, 4]
 [render]
+sample_generator = "independent"
 max_depth = 1
 [[mesh]]
 file = "p.obj"
@@ -218,6 +220,7 @@ resolution = [64, 64]
 aperture_radius = {aperture}
 focus_distance = 2.0
 [render]
+sample_generator = "independent"
 max_depth = 1
 [[mesh]]
 file = "e.obj"

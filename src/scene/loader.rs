@@ -188,6 +188,8 @@ pub struct RenderDesc {
     pub luminance_scale: Option<f32>,
     /// "bvh" (default) or "power".
     pub light_sampler: Option<crate::light::LightSampler>,
+    /// "sobol" (default) or "independent".
+    pub sample_generator: Option<super::SampleGenerator>,
 }
 
 /// `[[mesh]]`: an OBJ file and an optional transform.
@@ -387,6 +389,7 @@ impl SceneDescription {
             seed: self.render.seed.unwrap_or(d.seed),
             luminance_scale: self.render.luminance_scale.unwrap_or(d.luminance_scale),
             light_sampler: self.render.light_sampler.unwrap_or(d.light_sampler),
+            sample_generator: self.render.sample_generator.unwrap_or(d.sample_generator),
         }
     }
 

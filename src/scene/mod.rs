@@ -67,6 +67,21 @@ pub struct RenderSettings {
     pub luminance_scale: f32,
     /// How next-event estimation chooses a light (default: the light BVH).
     pub light_sampler: crate::light::LightSampler,
+    /// Where a sample's random numbers come from (default: Owen-scrambled Sobol').
+    pub sample_generator: SampleGenerator,
+}
+
+/// The source of each camera sample's random numbers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SampleGenerator {
+    /// Owen-scrambled Sobol' points per dimension pair ([`crate::sobol::SobolSampler`]):
+    /// randomised quasi-Monte Carlo, lower error per sample.
+    #[default]
+    Sobol,
+    /// Independent PCG32 numbers ([`crate::rng::Rng`]): plain Monte Carlo, whose per-pixel
+    /// error is σ/√n (what a z-test on one render assumes).
+    Independent,
 }
 
 impl Default for RenderSettings {
@@ -77,6 +92,7 @@ impl Default for RenderSettings {
             seed: 0,
             luminance_scale: perception::photometry::LUMINOUS_EFFICACY_LM_PER_W,
             light_sampler: crate::light::LightSampler::Bvh,
+            sample_generator: SampleGenerator::Sobol,
         }
     }
 }
