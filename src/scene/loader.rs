@@ -1495,81 +1495,95 @@ impl Builder {
         let normal_xf = Mat3::from_mat4(xf).inverse().transpose();
         select.check(&models).map_err(obj_err)?;
         for model in models.iter().filter(|m| select.keeps(&m.name)) {
-            let mesh = &model.mesh;
-            let material = match mesh.material_id {
+            let material = match model.mesh.material_id {
                 Some(id) if id < local_to_global.len() => local_to_global[id],
                 _ => self.default_material(),
             };
-            let pos = |i: u32| -> Vec3 {
-                let i = i as usize * 3;
-                xf.transform_point3(Vec3::new(
-                    mesh.positions[i],
-                    mesh.positions[i + 1],
-                    mesh.positions[i + 2],
-                ))
-            };
-            let has_n = mesh.normals.len() == mesh.positions.len() && !mesh.normals.is_empty();
-            let has_uv =
-                mesh.texcoords.len() / 2 == mesh.positions.len() / 3 && !mesh.texcoords.is_empty();
-            for (f, idx) in mesh.indices.chunks_exact(3).enumerate() {
-                let p = [pos(idx[0]), pos(idx[1]), pos(idx[2])];
-                if p.iter().any(|v| !v.is_finite()) {
-                    return Err(obj_err(format!(
-                        "object {:?}, face {}: vertex position is NaN or infinite",
-                        model.name,
-                        f + 1
-                    )));
-                }
-                if p.iter().any(|v| v.abs().max_element() > MAX_COORDINATE) {
-                    return Err(obj_err(format!(
-                        "object {:?}, face {}: a vertex lies beyond ±{MAX_COORDINATE:e} (after the \
-                         transform), where f32 arithmetic overflows",
-                        model.name,
-                        f + 1
-                    )));
-                }
-                let n = if has_n {
-                    let nn = |i: u32| {
-                        let i = i as usize * 3;
-                        (normal_xf
-                            * Vec3::new(mesh.normals[i], mesh.normals[i + 1], mesh.normals[i + 2]))
-                        .normalize_or_zero()
-                    };
-                    let n = [nn(idx[0]), nn(idx[1]), nn(idx[2])];
-                    if n.iter().all(|v| v.is_finite() && *v != Vec3::ZERO) {
-                        Some(n)
-                    } else {
-                        None
-                    }
+            self.add_model(model, (xf, normal_xf), material, instance)
+                .map_err(obj_err)?;
+        }
+        Ok(())
+    }
+
+    /// Appends the triangles of one OBJ model (positions through `xf.0`, normals through
+    /// `xf.1`) with material `material`. Errors name the object and face.
+    fn add_model(
+        &mut self,
+        model: &tobj::Model,
+        (xf, normal_xf): (Mat4, Mat3),
+        material: u32,
+        instance: u32,
+    ) -> Result<(), String> {
+        let mesh = &model.mesh;
+        let pos = |i: u32| -> Vec3 {
+            let i = i as usize * 3;
+            xf.transform_point3(Vec3::new(
+                mesh.positions[i],
+                mesh.positions[i + 1],
+                mesh.positions[i + 2],
+            ))
+        };
+        let has_n = mesh.normals.len() == mesh.positions.len() && !mesh.normals.is_empty();
+        let has_uv =
+            mesh.texcoords.len() / 2 == mesh.positions.len() / 3 && !mesh.texcoords.is_empty();
+        for (f, idx) in mesh.indices.chunks_exact(3).enumerate() {
+            let p = [pos(idx[0]), pos(idx[1]), pos(idx[2])];
+            if p.iter().any(|v| !v.is_finite()) {
+                return Err(format!(
+                    "object {:?}, face {}: vertex position is NaN or infinite",
+                    model.name,
+                    f + 1
+                ));
+            }
+            if p.iter().any(|v| v.abs().max_element() > MAX_COORDINATE) {
+                return Err(format!(
+                    "object {:?}, face {}: a vertex lies beyond ±{MAX_COORDINATE:e} (after the \
+                     transform), where f32 arithmetic overflows",
+                    model.name,
+                    f + 1
+                ));
+            }
+            let n = if has_n {
+                let nn = |i: u32| {
+                    let i = i as usize * 3;
+                    (normal_xf
+                        * Vec3::new(mesh.normals[i], mesh.normals[i + 1], mesh.normals[i + 2]))
+                    .normalize_or_zero()
+                };
+                let n = [nn(idx[0]), nn(idx[1]), nn(idx[2])];
+                if n.iter().all(|v| v.is_finite() && *v != Vec3::ZERO) {
+                    Some(n)
                 } else {
                     None
+                }
+            } else {
+                None
+            };
+            let uv = if has_uv {
+                let t = |i: u32| {
+                    let i = i as usize * 2;
+                    Vec2::new(mesh.texcoords[i], mesh.texcoords[i + 1])
                 };
-                let uv = if has_uv {
-                    let t = |i: u32| {
-                        let i = i as usize * 2;
-                        Vec2::new(mesh.texcoords[i], mesh.texcoords[i + 1])
-                    };
-                    let uv = [t(idx[0]), t(idx[1]), t(idx[2])];
-                    if uv.iter().any(|v| !v.is_finite()) {
-                        return Err(obj_err(format!(
-                            "object {:?}, face {}: texture coordinate is NaN or infinite",
-                            model.name,
-                            f + 1
-                        )));
-                    }
-                    uv
-                } else {
-                    [Vec2::ZERO; 3]
-                };
-                self.tris.push(TriangleAttributes {
-                    p,
-                    n,
-                    uv,
-                    material,
-                    light: u32::MAX,
-                    instance,
-                });
-            }
+                let uv = [t(idx[0]), t(idx[1]), t(idx[2])];
+                if uv.iter().any(|v| !v.is_finite()) {
+                    return Err(format!(
+                        "object {:?}, face {}: texture coordinate is NaN or infinite",
+                        model.name,
+                        f + 1
+                    ));
+                }
+                uv
+            } else {
+                [Vec2::ZERO; 3]
+            };
+            self.tris.push(TriangleAttributes {
+                p,
+                n,
+                uv,
+                material,
+                light: u32::MAX,
+                instance,
+            });
         }
         Ok(())
     }
