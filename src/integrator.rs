@@ -1,9 +1,11 @@
 //! Unidirectional path tracing of the rendering equation (Kajiya 1986) with next-event
 //! estimation, BSDF sampling and multiple importance sampling (Veach & Guibas 1995).
 //!
-//! At every non-delta vertex the estimator takes one light sample (an emissive triangle chosen
-//! by power, a uniform point on it) and one BSDF sample, and weights each with the power
-//! heuristic (β = 2) against the other strategy's pdf for the same direction. Emitters are seen
+//! At every non-delta vertex the estimator takes one light sample (a light chosen as
+//! [`crate::light::Lights`] describes, then a point or direction on it) and one BSDF sample, and
+//! weights each with the power heuristic (β = 2) against the other strategy's pdf for the same
+//! direction; point and spot lights, which BSDF sampling cannot reach, get weight 1. Rays that
+//! leave the scene see the environment and the suns, MIS-weighted the same way. Emitters are seen
 //! directly by camera rays and after delta bounces with weight 1. Russian roulette (Arvo & Kirk
 //! 1990) starts after [`RR_START_DEPTH`] bounces with survival probability min(1, max channel of
 //! the throughput × the η² of the refractions crossed), floored at 5 %, so the estimator stays
