@@ -81,7 +81,7 @@ pub fn sobol_dim0(i: u32) -> u32 {
 
 /// Sobol' dimension 1 (primitive polynomial x + 1, direction numbers v₁ = 2³¹,
 /// v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1): the Pascal matrix mod 2). The map is linear over GF(2), so it
-/// is the XOR of four byte-indexed tables ([`SOBOL1_BYTES`]): branch-free, four lookups.
+/// is the XOR of four byte-indexed tables: branch-free, four lookups.
 #[inline]
 pub fn sobol_dim1(i: u32) -> u32 {
     let t = &SOBOL1_BYTES;
