@@ -371,13 +371,10 @@ impl Lights {
     ) -> Option<LightSample> {
         let tri = self.tris[li];
         let t = &geo.tris[tri as usize];
-        let v = geo.world_vertices(tri, time);
+        let (v, n, area) = world_triangle(geo, tri, time);
         let b = square_to_uniform_triangle(u);
         let b0 = 1.0 - b.x - b.y;
         let p = v[0] * b.x + v[1] * b.y + v[2] * b0;
-        let cross = (v[1] - v[0]).cross(v[2] - v[0]);
-        let n = crate::math::robust_normalize(cross);
-        let area = 0.5 * crate::math::robust_length(cross);
         let d = p - p_ref;
         let dist2 = d.length_squared();
         if dist2 <= 0.0 || area <= 0.0 {
@@ -442,10 +439,7 @@ impl Lights {
         if light == u32::MAX {
             return 0.0;
         }
-        let v = geo.world_vertices(tri, time);
-        let cross = (v[1] - v[0]).cross(v[2] - v[0]);
-        let n = crate::math::robust_normalize(cross);
-        let area = 0.5 * crate::math::robust_length(cross);
+        let (_, n, area) = world_triangle(geo, tri, time);
         let d = p_light - p_ref;
         let dist2 = d.length_squared();
         let cos_l = (-d.dot(n) / dist2.sqrt()).max(0.0);
@@ -454,4 +448,17 @@ impl Lights {
         }
         self.choice_pmf(p_ref, n_ref, light as usize) / area * dist2 / cos_l
     }
+}
+
+/// Triangle `tri` at scene time `time`: its world vertices, unit normal (from the winding) and
+/// area.
+#[inline]
+fn world_triangle(geo: &Geometry, tri: u32, time: f32) -> ([Vec3; 3], Vec3, f32) {
+    let v = geo.world_vertices(tri, time);
+    let cross = (v[1] - v[0]).cross(v[2] - v[0]);
+    (
+        v,
+        crate::math::robust_normalize(cross),
+        0.5 * crate::math::robust_length(cross),
+    )
 }
