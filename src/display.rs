@@ -124,6 +124,15 @@ impl FrozenToneMap {
         })
     }
 
+    /// The same frozen curve with the image graded by `ev` stops (its input multiplied by
+    /// 2^ev before the curve): how a user who grades the EXR brighter (`ev` > 0) or darker
+    /// sees it, with the tone curve's image-dependent parts left where the image put them.
+    pub fn graded(&self, ev: f64) -> FrozenToneMap {
+        let mut g = self.clone();
+        g.settings.luminance_scale *= 2f64.powf(ev) as f32;
+        g
+    }
+
     /// Display luminance in cd/m² of the display's white (value 1): the operator's L_dmax
     /// (TR/FPSG 125, WRP 100, PTYG its white 125; exposure and Reinhard 100, an sRGB display).
     pub fn display_max_cd_m2(&self) -> f64 {

@@ -6,7 +6,9 @@ use super::{parse_resolution, with_threads};
 use aleph::adaptive::SamplerKind;
 use aleph::output::{AtomicOutputs, write_png};
 use aleph::scene::SceneDescription;
-use aleph::speedup::{Arm, Row, Scores, Sweep, SweepSpec, samples_for, sweep};
+use aleph::speedup::{
+    Arm, LATITUDE_EV, METRICS, Row, Scores, Sweep, SweepSpec, samples_for, sweep,
+};
 use anyhow::bail;
 use clap::Args;
 use perception::tmo::Operator;
@@ -128,12 +130,13 @@ fn scene_name(args: &SpeedupArgs) -> String {
 
 fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "sampler,budget_spp,mean_spp,guide_spp,wall_s,perception_s,flip_mean,flip_p99,visible_fraction,relmse\n",
+        "sampler,budget_spp,mean_spp,guide_spp,wall_s,perception_s,flip_mean,flip_p99,visible_fraction,relmse,flip_mean_ev-2,flip_p99_ev-2,flip_mean_ev+2,flip_p99_ev+2\n",
     );
     for r in rows {
+        let (d, b) = (r.scores.graded[0], r.scores.graded[1]);
         let _ = writeln!(
             s,
-            "{},{},{:.4},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8}",
+            "{},{},{:.4},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8},{:.6},{:.6},{:.6},{:.6}",
             r.sampler.name(),
             r.budget,
             r.mean_spp,
@@ -143,7 +146,11 @@ fn csv(rows: &[Row]) -> String {
             r.scores.flip_mean,
             r.scores.flip_p99,
             r.scores.visible_fraction,
-            r.scores.relmse
+            r.scores.relmse,
+            d.mean,
+            d.p99,
+            b.mean,
+            b.p99
         );
     }
     s
@@ -201,13 +208,25 @@ fn report(sw: &Sweep, args: &SpeedupArgs, scene: &str) -> String {
             r.scores.relmse
         );
     }
-    for (label, metric) in [
-        (
-            "FLIP mean",
-            (|r: &Row| r.scores.flip_mean) as fn(&Row) -> f64,
-        ),
-        ("FLIP p99", |r: &Row| r.scores.flip_p99),
-    ] {
+    let _ = writeln!(
+        s,
+        "\nThe same renders graded {LATITUDE_EV} stops darker and brighter (the ends of the exposure latitude the sampler must hold), FLIP mean / p99:\n\n| sampler | budget spp | −{LATITUDE_EV} EV | +{LATITUDE_EV} EV |\n|---|---|---|---|"
+    );
+    for r in rows {
+        let (d, b) = (r.scores.graded[0], r.scores.graded[1]);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.4} / {:.4} | {:.4} / {:.4} |",
+            r.sampler.name(),
+            r.budget,
+            d.mean,
+            d.p99,
+            b.mean,
+            b.p99
+        );
+    }
+    for (label, read) in METRICS {
+        let metric = |r: &Row| read(&r.scores);
         let _ = writeln!(s, "\n## Equal {label}\n");
         let _ = writeln!(
             s,

@@ -18,8 +18,8 @@
 mod sweep;
 
 pub use sweep::{
-    Arm, Row, SpeedupError, Sweep, SweepSpec, frame_key, frame_list, image_path, reference_key,
-    sweep,
+    Arm, CSV_FIELDS, Row, SpeedupError, Sweep, SweepSpec, frame_key, frame_list, grade_dir,
+    image_path, reference_key, sweep,
 };
 
 use crate::display::FrozenToneMap;
@@ -28,8 +28,27 @@ use perception::metric::DiffMetric;
 use perception::threshold::ThresholdParams;
 use perception::viewing::ViewingConditions;
 
+/// The exposure latitude of the judged display: the EXR graded this many stops darker and
+/// brighter than the displayed exposure is judged too (issue 12: savings must not come from
+/// noise that a grade reveals).
+pub const LATITUDE_EV: f64 = 2.0;
+
+/// The grades judged beside the displayed image, in stops.
+pub const GRADES_EV: [f64; 2] = [-LATITUDE_EV, LATITUDE_EV];
+
+/// FLIP scores of an image graded by `ev` stops under the same frozen curve.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GradedFlip {
+    /// The grade, stops (negative: darker).
+    pub ev: f64,
+    /// Mean of the FLIP error map.
+    pub mean: f64,
+    /// 99th percentile of the FLIP map after a 5×5 box filter.
+    pub p99: f64,
+}
+
 /// Scores of one image against the reference.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Scores {
     /// Mean of the FLIP error map.
     pub flip_mean: f64,
@@ -39,7 +58,38 @@ pub struct Scores {
     pub visible_fraction: f64,
     /// Relative mean squared error of the linear values.
     pub relmse: f64,
+    /// FLIP at the ends of the exposure latitude ([`GRADES_EV`]: darker, then brighter).
+    pub graded: [GradedFlip; 2],
 }
+
+impl Scores {
+    /// Field-wise `self + k · o` (the grades' `ev` are taken from `o`).
+    pub fn add_scaled(&mut self, o: &Scores, k: f64) {
+        self.flip_mean += k * o.flip_mean;
+        self.flip_p99 += k * o.flip_p99;
+        self.visible_fraction += k * o.visible_fraction;
+        self.relmse += k * o.relmse;
+        for (a, b) in self.graded.iter_mut().zip(&o.graded) {
+            a.ev = b.ev;
+            a.mean += k * b.mean;
+            a.p99 += k * b.p99;
+        }
+    }
+}
+
+/// A score the sweep reads speedups at: its label and how to read it.
+pub type Metric = (&'static str, fn(&Scores) -> f64);
+
+/// The FLIP scores speedups are read at: mean and p99 at the displayed exposure and at both
+/// ends of the latitude.
+pub const METRICS: [Metric; 6] = [
+    ("FLIP mean", |s| s.flip_mean),
+    ("FLIP p99", |s| s.flip_p99),
+    ("FLIP mean at −2 EV", |s| s.graded[0].mean),
+    ("FLIP p99 at −2 EV", |s| s.graded[0].p99),
+    ("FLIP mean at +2 EV", |s| s.graded[1].mean),
+    ("FLIP p99 at +2 EV", |s| s.graded[1].p99),
+];
 
 /// The judge: the reference's display image, its threshold map, and the frozen tone curve.
 pub struct Judge {
@@ -52,6 +102,8 @@ pub struct Judge {
     metric: DiffMetric,
     map: perception::threshold::ThresholdMap,
     ppd: f32,
+    /// The reference at each grade of [`GRADES_EV`]: its curve and display sRGB.
+    grades: Vec<(FrozenToneMap, Vec<u8>)>,
 }
 
 /// The `p`-quantile (0–1) by sorting.
@@ -80,7 +132,16 @@ impl Judge {
         let reference_lum = frozen.display_luminance(&reference)?;
         let metric = DiffMetric::new(width, height, view, ThresholdParams::default(), 100)?;
         let map = metric.reference_map(&reference_lum)?;
+        let grades = GRADES_EV
+            .iter()
+            .map(|&ev| {
+                let g = frozen.graded(ev);
+                let srgb = encode_srgb8(&g.map(&reference)?);
+                Ok((g, srgb))
+            })
+            .collect::<perception::Result<Vec<_>>>()?;
         Ok(Judge {
+            grades,
             width,
             height,
             reference,
@@ -107,10 +168,29 @@ impl Judge {
     /// From the tone operator.
     pub fn flip_map(&self, rgb: &[f32]) -> perception::Result<Vec<f32>> {
         let test = self.display_srgb(rgb)?;
+        Ok(self.flip_srgb(&self.reference_srgb, &test))
+    }
+
+    /// The display sRGB of an image graded by `GRADES_EV[k]` stops.
+    ///
+    /// # Errors
+    /// From the tone operator.
+    pub fn graded_srgb(&self, k: usize, rgb: &[f32]) -> perception::Result<Vec<u8>> {
+        Ok(encode_srgb8(&self.grades[k].0.map(rgb)?))
+    }
+
+    fn flip_srgb(&self, reference: &[u8], test: &[u8]) -> Vec<f32> {
         let (w, h) = (self.width as u32, self.height as u32);
-        let r = nv_flip::FlipImageRgb8::with_data(w, h, &self.reference_srgb);
-        let t = nv_flip::FlipImageRgb8::with_data(w, h, &test);
-        Ok(nv_flip::flip(r, t, self.ppd).to_vec())
+        let r = nv_flip::FlipImageRgb8::with_data(w, h, reference);
+        let t = nv_flip::FlipImageRgb8::with_data(w, h, test);
+        nv_flip::flip(r, t, self.ppd).to_vec()
+    }
+
+    /// FLIP mean and 5×5-pooled p99 of a FLIP map; returns the pooled map too.
+    fn flip_stats(&self, fmap: &[f32]) -> (f64, f64, Vec<f32>) {
+        let mean = fmap.iter().map(|&v| v as f64).sum::<f64>() / fmap.len() as f64;
+        let filtered = crate::math::box_mean(fmap, self.width, self.height, 2);
+        (mean, quantile(&filtered, 0.99), filtered)
     }
 
     /// Scores an image (linear RGB).
@@ -127,9 +207,17 @@ impl Judge {
     /// From the perception models.
     pub fn score_with_map(&self, rgb: &[f32]) -> perception::Result<(Scores, Vec<f32>)> {
         let fmap = self.flip_map(rgb)?;
-        let flip_mean = fmap.iter().map(|&v| v as f64).sum::<f64>() / fmap.len() as f64;
-        let filtered = crate::math::box_mean(&fmap, self.width, self.height, 2);
-        let flip_p99 = quantile(&filtered, 0.99);
+        let (flip_mean, flip_p99, filtered) = self.flip_stats(&fmap);
+        let mut graded = [GradedFlip::default(); 2];
+        for (k, g) in graded.iter_mut().enumerate() {
+            let test = self.graded_srgb(k, rgb)?;
+            let (mean, p99, _) = self.flip_stats(&self.flip_srgb(&self.grades[k].1, &test));
+            *g = GradedFlip {
+                ev: GRADES_EV[k],
+                mean,
+                p99,
+            };
+        }
         let lum = self.frozen.display_luminance(rgb)?;
         let diff = self
             .metric
@@ -146,6 +234,7 @@ impl Judge {
                 flip_p99,
                 visible_fraction: diff.visible_fraction,
                 relmse,
+                graded,
             },
             filtered,
         ))

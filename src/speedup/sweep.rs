@@ -1,6 +1,6 @@
 //! The equal-quality sweep: cached references, every sampler at every budget, per frame.
 
-use super::{Ceiling, Judge, Scores, ceiling};
+use super::{Ceiling, GRADES_EV, Judge, Scores, ceiling};
 use crate::adaptive::{AdaptiveSettings, SamplerKind, render_adaptive};
 use crate::display::FrozenToneMap;
 use crate::film::Film;
@@ -96,11 +96,12 @@ impl Row {
         )
     }
 
-    /// `sampler,budget_spp,mean_spp,wall_s,flip_mean,flip_p99,visible_fraction,relmse`.
+    /// [`CSV_FIELDS`] but `frame`.
     pub fn csv_fields(&self) -> String {
         let s = &self.scores;
+        let (d, b) = (s.graded[0], s.graded[1]);
         format!(
-            "{},{},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8}",
+            "{},{},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8},{:.6},{:.6},{:.6},{:.6}",
             self.sampler.name(),
             self.budget,
             self.mean_spp,
@@ -108,10 +109,18 @@ impl Row {
             s.flip_mean,
             s.flip_p99,
             s.visible_fraction,
-            s.relmse
+            s.relmse,
+            d.mean,
+            d.p99,
+            b.mean,
+            b.p99
         )
     }
 }
+
+/// Header of the per-frame CSV (`frames.csv`).
+pub const CSV_FIELDS: &str = "frame,sampler,budget_spp,mean_spp,wall_s,flip_mean,flip_p99,\
+    visible_fraction,relmse,flip_mean_ev-2,flip_p99_ev-2,flip_mean_ev+2,flip_p99_ev+2";
 
 /// The cache key of a scene's references: FNV-1a over the scene file, its meshes and the
 /// settings that change a reference (resolution, spp, seed, depth, aleph's version). A
@@ -236,10 +245,7 @@ struct Acc {
     guide_spp: f64,
     wall_s: f64,
     decision_s: f64,
-    flip_mean: f64,
-    flip_p99: f64,
-    visible: f64,
-    relmse: f64,
+    scores: Scores,
 }
 
 impl Acc {
@@ -249,15 +255,14 @@ impl Acc {
         self.guide_spp += r.guide_spp;
         self.wall_s += r.wall_s;
         self.decision_s += r.decision_s;
-        self.flip_mean += r.scores.flip_mean;
-        self.flip_p99 += r.scores.flip_p99;
-        self.visible += r.scores.visible_fraction;
-        self.relmse += r.scores.relmse;
+        self.scores.add_scaled(&r.scores, 1.0);
     }
 
     /// Means of spp and scores, sums of times.
     fn row(&self, sampler: Arm, budget: f64) -> Row {
         let k = 1.0 / self.frames.max(1) as f64;
+        let mut scores = Scores::default();
+        scores.add_scaled(&self.scores, k);
         Row {
             sampler,
             budget,
@@ -265,12 +270,7 @@ impl Acc {
             guide_spp: self.guide_spp * k,
             wall_s: self.wall_s,
             decision_s: self.decision_s,
-            scores: Scores {
-                flip_mean: self.flip_mean * k,
-                flip_p99: self.flip_p99 * k,
-                visible_fraction: self.visible * k,
-                relmse: self.relmse * k,
-            },
+            scores,
         }
     }
 }
@@ -283,6 +283,11 @@ pub fn image_path(dir: &Path, arm: &str, frame: Option<i64>) -> PathBuf {
         None => dir.join(format!("{arm}.png")),
         Some(f) => dir.join("frames").join(arm).join(format!("{f:04}.png")),
     }
+}
+
+/// The subdirectory of the display images graded by `ev` stops: `ev-2`, `ev+2`.
+pub fn grade_dir(ev: f64) -> String {
+    format!("ev{ev:+}")
 }
 
 /// The frames to judge: `None` once for a still; for an animated scene `range` or its whole
@@ -448,9 +453,7 @@ pub fn sweep(
             .map(|_| Acc::default())
             .collect(),
         floor: Acc::default(),
-        per_frame: String::from(
-            "frame,sampler,budget_spp,mean_spp,wall_s,flip_mean,flip_p99,visible_fraction,relmse\n",
-        ),
+        per_frame: format!("{CSV_FIELDS}\n"),
         uniform_maps: Vec::new(),
         view: base.tone.view,
     };
@@ -549,16 +552,25 @@ fn sweep_frame(
         scores: Judge::floor(&reference.even, &reference.odd, w, h, frozen, view)?,
     });
     let mut images = AtomicOutputs::new();
+    // The displayed image in `dir`, each grade's in `dir/ev-2` and `dir/ev+2`.
     let stage_png = |images: &mut AtomicOutputs, name: &str, rgb: &[f32]| {
-        let p = image_path(ctx.dir, name, ctx.frame);
-        if let Some(parent) = p.parent() {
-            std::fs::create_dir_all(parent).map_err(|source| SpeedupError::Dir {
-                path: parent.to_path_buf(),
-                source,
-            })?;
+        for grade in 0..=GRADES_EV.len() {
+            let (sub, srgb) = match grade {
+                0 => (ctx.dir.to_path_buf(), judge.display_srgb(rgb)?),
+                k => (
+                    ctx.dir.join(grade_dir(GRADES_EV[k - 1])),
+                    judge.graded_srgb(k - 1, rgb)?,
+                ),
+            };
+            let p = image_path(&sub, name, ctx.frame);
+            if let Some(parent) = p.parent() {
+                std::fs::create_dir_all(parent).map_err(|source| SpeedupError::Dir {
+                    path: parent.to_path_buf(),
+                    source,
+                })?;
+            }
+            images.stage(&p, |wr| write_png(wr, &p, w as u32, h as u32, &srgb))?;
         }
-        let srgb = judge.display_srgb(rgb)?;
-        images.stage(&p, |wr| write_png(wr, &p, w as u32, h as u32, &srgb))?;
         Ok::<(), SpeedupError>(())
     };
     stage_png(&mut images, "reference", &reference.mean)?;
