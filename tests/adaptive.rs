@@ -127,9 +127,12 @@ fn dark_regions_tolerate_more_relative_error() {
     scene.settings.luminance_scale = 100.0 / 0.8 / 1.1 * 0.8;
     // A viewer at 12 pixels per degree, so that the 1° adaptation window (σ ≈ 5 px) keeps each
     // half adapted to itself rather than to the mixture.
+    // At one exposure: graded 2 stops brighter the dark half would be 10 cd/m², and the
+    // latitude (tested below) would rightly ask for more samples there.
     let mut s = AdaptiveSettings {
         budget_spp: Some(48.0),
         visibility: Visibility::Scene,
+        latitude_ev: 0.0,
         ..AdaptiveSettings::default()
     };
     s.tone.view.ppd = 12.0;
@@ -139,6 +142,44 @@ fn dark_regions_tolerate_more_relative_error() {
     assert!(
         bright > 1.5 * dark,
         "dark {dark:.1} spp, bright {bright:.1} spp"
+    );
+}
+
+#[test]
+fn highlights_clipped_on_display_keep_their_samples_under_the_exposure_latitude() {
+    // Left half albedo 0.9, right 0.01: the automatic exposure (log average to 0.18) puts the
+    // left half at ≈ 1.7 × display white, so it clips and its noise is invisible as displayed;
+    // graded 2 stops darker it is at ≈ 0.43 and its noise shows. Judged as displayed only, the
+    // sampler leaves the clipped half at the first pass's samples; with the ±2 EV latitude it
+    // samples it as a visible surface.
+    let d = tempdir();
+    let scene = split_plane(d.path(), "Kd 0.9 0.9 0.9", "Kd 0.01 0.01 0.01", 48, 48, &[]);
+    let spp_left = |latitude_ev: f64| {
+        let s = AdaptiveSettings {
+            budget_spp: Some(32.0),
+            latitude_ev,
+            ..AdaptiveSettings::default()
+        };
+        let r = render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap();
+        // The middle rows, where the left half clips (its corners, further from the light, do
+        // not).
+        let mean = |x0: u32, x1: u32| {
+            let n: u32 = (16..32)
+                .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+                .map(|(x, y)| r.film.pixel(x, y).n)
+                .sum();
+            n as f64 / (16 * (x1 - x0)) as f64
+        };
+        (mean(2, 22), mean(26, 46))
+    };
+    let (clip_left, clip_right) = spp_left(0.0);
+    let (lat_left, lat_right) = spp_left(2.0);
+    // As displayed, the clipped pixels keep the first pass's 8 spp (a few near the edge of the
+    // halves take more through the 3×3 pooling); with the latitude they take several times that.
+    assert!(
+        clip_left < 1.25 * 8.0 && lat_left > 4.0 * clip_left,
+        "as displayed: left {clip_left:.1}, right {clip_right:.1} spp; \
+         with latitude: left {lat_left:.1}, right {lat_right:.1} spp"
     );
 }
 
@@ -176,20 +217,22 @@ fn a_constant_pixel_stops_receiving_samples() {
             assert!((p.mean().x - 2.0).abs() < 1e-6);
         }
     }
-    // Meanwhile the budget (64 spp on average) went to the background.
-    let mut bg = (0u64, 0u64);
+    // Meanwhile the budget (64 spp on average) went to the rest of the image. (Not only to the
+    // background: graded 2 EV darker, the light's edges are no longer clipped and their
+    // antialiasing noise shows, so the exposure latitude samples them too.)
+    let mut rest = (0u64, 0u64);
     for y in 0..40 {
         for x in 0..40 {
-            if !(11..29).contains(&x) || !(11..29).contains(&y) {
-                bg.0 += r.film.pixel(x, y).n as u64;
-                bg.1 += 1;
+            if !(17..23).contains(&x) || !(17..23).contains(&y) {
+                rest.0 += r.film.pixel(x, y).n as u64;
+                rest.1 += 1;
             }
         }
     }
     assert!(
-        bg.0 as f64 / bg.1 as f64 > 64.0,
-        "background {} spp",
-        bg.0 as f64 / bg.1 as f64
+        rest.0 as f64 / rest.1 as f64 > 64.0,
+        "rest of the image {} spp",
+        rest.0 as f64 / rest.1 as f64
     );
 }
 

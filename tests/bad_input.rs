@@ -441,8 +441,9 @@ fn one_failed_output_writes_none_of_the_others() {
     let e = aleph_fails(&[
         "render".as_ref(),
         s.as_os_str(),
+        // Above the first pass's 8 spp, so that the sampler judges and has a ratio to write.
         "--spp".as_ref(),
-        "4".as_ref(),
+        "16".as_ref(),
         "--aov".as_ref(),
         "-o".as_ref(),
         d.path().join("out").as_os_str(),

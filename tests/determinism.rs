@@ -57,7 +57,7 @@ fn cli_output_is_identical_for_one_and_two_threads() {
             .args([
                 "render",
                 "--spp",
-                "4",
+                "16",
                 "--resolution",
                 "32x24",
                 "--threads",

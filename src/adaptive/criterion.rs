@@ -17,6 +17,15 @@ use perception::threshold::ThresholdMapper;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
+/// The threshold where no change of the pixel is visible at any grade (the tone curve clips
+/// it), in the criterion's units.
+pub(crate) const NO_THRESHOLD: f32 = 1e30;
+
+/// The threshold map is recomputed (tone curve, adaptation, slopes) once the film's mean spp
+/// has grown by this factor since it was last computed; in between only the error is. The
+/// maps rest on 5×5-pooled and 1°-smoothed means, which change little between passes.
+const REFRESH_SPP_FACTOR: f64 = 4.0;
+
 /// Seed offset of the guide's samples (independent of the image's).
 const GUIDE_SEED_XOR: u64 = 0x6A09_E667_F3BC_C908;
 
@@ -49,10 +58,31 @@ fn visible_luminance(
     }
 }
 
+/// One grade of the image in which visibility is judged: the displayed curve (or the scene
+/// scale) with the input multiplied by 2^ev.
+struct Grade {
+    frozen: Option<FrozenToneMap>,
+    scale: f32,
+}
+
+impl Grade {
+    fn new(frozen: Option<&FrozenToneMap>, scale: f32, ev: f64) -> Grade {
+        Grade {
+            frozen: frozen.map(|f| f.graded(ev)),
+            scale: scale * 2f64.powf(ev) as f32,
+        }
+    }
+
+    fn luminance(&self, rgb: &[f32]) -> perception::Result<Vec<f32>> {
+        visible_luminance(rgb, self.frozen.as_ref(), self.scale)
+    }
+}
+
 /// What the perceptual criterion takes from the guide, once per frame.
 struct GuideState {
-    /// Threshold RMS contrast of pixel noise (per pixel, dimensionless).
-    noise_contrast: Vec<f32>,
+    /// Threshold RMS contrast of pixel noise (per pixel, dimensionless), one map per grade of
+    /// [`AdaptiveSettings::grades_ev`].
+    noise_contrast: Vec<Vec<f32>>,
     /// Saliency in [0, 1] of the first pass's display image, when ω > 0.
     saliency: Option<Vec<f32>>,
 }
@@ -63,6 +93,8 @@ pub(crate) struct PerceptualCriterion {
     /// Image velocity at the frame's instant, pixels per frame, interleaved (x, y).
     velocity: Option<Vec<f32>>,
     state: Option<GuideState>,
+    /// The last threshold map and the mean spp of the film it was computed from.
+    threshold: Option<(f64, Vec<f32>)>,
     /// Counters of the guide render, once it ran.
     pub guide_stats: Option<RenderStats>,
 }
@@ -95,19 +127,21 @@ impl PerceptualCriterion {
             mapper: ThresholdMapper::new(w, h, view, s.threshold)?,
             velocity,
             state: None,
+            threshold: None,
             guide_stats: None,
         })
     }
 
-    /// Renders the albedo guide and computes the noise threshold contrast from it (and the
-    /// saliency of the current display image `mean`, when ω > 0). `lf` is the current image in
-    /// visibility units: the guide's contrast structure is scaled to its mean level.
+    /// Renders the albedo guide and computes the noise threshold contrast from it at every
+    /// grade (and the saliency of the current display image `mean`, when ω > 0). `lfs` is the
+    /// current image in visibility units at each grade: the guide's contrast structure is scaled
+    /// to its mean level there.
     fn guide(
         &mut self,
         scene: &Scene,
         s: &AdaptiveSettings,
         mean: &[f32],
-        lf: &[f32],
+        lfs: &[Vec<f32>],
         frozen: Option<&FrozenToneMap>,
     ) -> perception::Result<Duration> {
         let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
@@ -127,13 +161,6 @@ impl PerceptualCriterion {
         });
         let a_lum = luminance_image(&albedo, 1.0);
         let mean_a = a_lum.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
-        let mean_f = lf.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
-        let k = if mean_a > 0.0 {
-            (mean_f / mean_a) as f32
-        } else {
-            1.0
-        };
-        let g_lum: Vec<f32> = a_lum.iter().map(|&v| v * k).collect();
         let saliency = if s.saliency_weight > 0.0 {
             let display = match frozen {
                 Some(f) => f.map(mean)?,
@@ -147,11 +174,24 @@ impl PerceptualCriterion {
             (Some(sal), Some(v)) => self.tracked_target(sal, v),
             _ => EyeTracking::PerPixel,
         };
-        let map = self
-            .mapper
-            .compute_tracked(&g_lum, self.velocity.as_deref(), eye)?;
+        let noise_contrast = lfs
+            .iter()
+            .map(|lf| {
+                let mean_f = lf.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
+                let k = if mean_a > 0.0 {
+                    (mean_f / mean_a) as f32
+                } else {
+                    1.0
+                };
+                let g_lum: Vec<f32> = a_lum.iter().map(|&v| v * k).collect();
+                let map = self
+                    .mapper
+                    .compute_tracked(&g_lum, self.velocity.as_deref(), eye)?;
+                Ok(map.noise_contrast)
+            })
+            .collect::<perception::Result<Vec<_>>>()?;
         self.state = Some(GuideState {
-            noise_contrast: map.noise_contrast,
+            noise_contrast,
             saliency,
         });
         Ok(guide_time)
@@ -176,19 +216,12 @@ impl PerceptualCriterion {
         EyeTracking::Target([sx / sw * k, sy / sw * k])
     }
 
-    /// Error estimate per pixel in visibility units, before the 3×3 pooling.
-    fn error(
-        film: &Film,
-        s: &AdaptiveSettings,
-        mean: &[f32],
-        lf: &[f32],
-        frozen: Option<&FrozenToneMap>,
-        scale: f32,
-    ) -> perception::Result<Vec<f32>> {
-        Ok(match s.error_estimate {
+    /// Error estimate per pixel in scene luminance (cd/m², Y × `scale`).
+    fn error(film: &Film, s: &AdaptiveSettings, scale: f32) -> Vec<f32> {
+        match s.error_estimate {
             ErrorEstimate::HalfBuffers => {
-                let la = visible_luminance(&film.mean_rgb_even(), frozen, scale)?;
-                let lb = visible_luminance(&film.mean_rgb_odd(), frozen, scale)?;
+                let la = luminance_image(&film.mean_rgb_even(), scale);
+                let lb = luminance_image(&film.mean_rgb_odd(), scale);
                 la.par_iter()
                     .zip(lb.par_iter())
                     .map(|(a, b)| 0.5 * (a - b).abs())
@@ -197,20 +230,56 @@ impl PerceptualCriterion {
             ErrorEstimate::StandardError => film
                 .pixels
                 .par_iter()
-                .zip(mean.par_chunks_exact(3))
-                .zip(lf.par_iter())
-                .map(|((px, rgb), &ld)| {
-                    let y = perception::photometry::luminance(rgb[0], rgb[1], rgb[2]);
-                    let gain = if y > 0.0 { ld / y } else { 0.0 };
-                    let se = if px.n >= 2 {
-                        px.lum_std_error() as f32
+                .map(|px| {
+                    if px.n >= 2 {
+                        px.lum_std_error() as f32 * scale
                     } else {
                         0.0
-                    };
-                    gain * se
+                    }
                 })
                 .collect(),
-        })
+        }
+    }
+
+    /// The threshold at one grade referred to scene luminance: L_a · C_noise (a display
+    /// luminance change at threshold) over the display's response to scene luminance at the
+    /// pixel, dL_d/dY, the slope of the frozen curve across ±5 % of the pixel's mean. Where the
+    /// curve clips (slope 0) no change is visible: the threshold is [`NO_THRESHOLD`].
+    fn threshold_at_grade(
+        s: &AdaptiveSettings,
+        lf: &[f32],
+        grade: &Grade,
+        noise_contrast: &[f32],
+        pooled: &[f32],
+        (w, h, scale): (usize, usize, f32),
+    ) -> perception::Result<Vec<f32>> {
+        let adapt = adaptation_luminance(
+            lf,
+            w,
+            h,
+            &s.tone.view,
+            AdaptationMode::LocalArithmetic,
+            s.threshold.adaptation_window_deg,
+        )?;
+        // The slope at the 5×5-pooled mean: at the pixel's own mean it would carry the pixel's
+        // noise into the threshold (and make it flicker from frame to frame).
+        let up = grade.luminance(&pooled.iter().map(|v| v * 1.05).collect::<Vec<_>>())?;
+        let down = grade.luminance(&pooled.iter().map(|v| v * 0.95).collect::<Vec<_>>())?;
+        let y = luminance_image(pooled, scale);
+        Ok(adapt
+            .par_iter()
+            .zip(noise_contrast.par_iter())
+            .zip(up.par_iter().zip(down.par_iter()))
+            .zip(y.par_iter())
+            .map(|(((&a, &c), (&u, &d)), &y)| {
+                let slope = (u - d) / (0.1 * y);
+                if slope > 0.0 && slope.is_finite() {
+                    (a * c / slope).min(NO_THRESHOLD)
+                } else {
+                    NO_THRESHOLD
+                }
+            })
+            .collect())
     }
 
     /// Judges the film. Returns the judgement and the time spent rendering the guide (a
@@ -224,6 +293,14 @@ impl PerceptualCriterion {
         let (w, h) = (film.width as usize, film.height as usize);
         let scale = scene.settings.luminance_scale;
         let mean = film.mean_rgb();
+        let spp = film.total_samples() as f64 / film.len() as f64;
+        if let Some((at, t)) = &self.threshold
+            && spp < REFRESH_SPP_FACTOR * at
+        {
+            let threshold = t.clone();
+            let error = Self::pooled_error(film, s, scale, &threshold);
+            return Ok((Judgement { error, threshold }, Duration::ZERO));
+        }
         let frozen = match s.visibility {
             // A row tile sees the rest of the image at first-pass noise, whose log average is
             // biased low (Jensen's inequality): fitted to it, the curve came out brighter than
@@ -242,32 +319,57 @@ impl PerceptualCriterion {
             Visibility::Display => Some(FrozenToneMap::new(&mean, w, h, &s.tone)?),
             Visibility::Scene => None,
         };
-        let lf = visible_luminance(&mean, frozen.as_ref(), scale)?;
+        let grades: Vec<Grade> = s
+            .grades_ev()
+            .iter()
+            .map(|&ev| Grade::new(frozen.as_ref(), scale, ev))
+            .collect();
+        let lfs = grades
+            .iter()
+            .map(|g| g.luminance(&mean))
+            .collect::<perception::Result<Vec<_>>>()?;
         let guide_time = if self.state.is_none() {
-            self.guide(scene, s, &mean, &lf, frozen.as_ref())?
+            self.guide(scene, s, &mean, &lfs, frozen.as_ref())?
         } else {
             Duration::ZERO
         };
         let st = self.state.as_ref().expect("set above");
-        let e = Self::error(film, s, &mean, &lf, frozen.as_ref(), scale)?;
-        let error = crate::math::box_mean(&e, w, h, 1);
-        let adapt = adaptation_luminance(
-            &lf,
-            w,
-            h,
-            &s.tone.view,
-            AdaptationMode::LocalArithmetic,
-            s.threshold.adaptation_window_deg,
-        )?;
-        let mut threshold: Vec<f32> = adapt
-            .par_iter()
-            .zip(st.noise_contrast.par_iter())
-            .map(|(&a, &c)| a * c)
-            .collect();
+        // The smallest threshold over the grades, each referred to scene luminance through
+        // its curve's slope: noise must be invisible however the image is graded within the
+        // latitude. A minimum of noise-free maps, so it cannot flicker with the noise.
+        let mut threshold = vec![NO_THRESHOLD; w * h];
+        let pooled = pool_rgb(&mean, w, h, 2);
+        for ((grade, lf), contrast) in grades.iter().zip(&lfs).zip(&st.noise_contrast) {
+            let t = Self::threshold_at_grade(s, lf, grade, contrast, &pooled, (w, h, scale))?;
+            threshold
+                .par_iter_mut()
+                .zip(t.par_iter())
+                .for_each(|(a, &b)| *a = a.min(b));
+        }
         if let Some(sal) = &st.saliency {
             threshold = perception::saliency::aleph_map(&threshold, sal, s.saliency_weight)?;
         }
+        self.threshold = Some((spp, threshold.clone()));
+        let error = Self::pooled_error(film, s, scale, &threshold);
         Ok((Judgement { error, threshold }, guide_time))
+    }
+
+    /// The error, pooled as a ratio over 3×3 pixels so a single lucky pixel is not called
+    /// converged (pooling the error itself would carry a light's noise into its dark
+    /// neighbours), times the pixel's threshold.
+    fn pooled_error(film: &Film, s: &AdaptiveSettings, scale: f32, threshold: &[f32]) -> Vec<f32> {
+        let (w, h) = (film.width as usize, film.height as usize);
+        let e = Self::error(film, s, scale);
+        let r: Vec<f32> = e
+            .par_iter()
+            .zip(threshold.par_iter())
+            .map(|(e, t)| e / t)
+            .collect();
+        crate::math::box_mean(&r, w, h, 1)
+            .par_iter()
+            .zip(threshold.par_iter())
+            .map(|(r, t)| r * t)
+            .collect()
     }
 }
 

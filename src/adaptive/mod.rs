@@ -164,6 +164,11 @@ pub struct AdaptiveSettings {
     /// Whether the perceptual threshold takes the frame's velocity map (default true; only
     /// sequences have one): moving content is seen through the spatiovelocity CSF.
     pub use_velocity: bool,
+    /// Exposure latitude of the perceptual threshold, stops (default 2): noise must stay below
+    /// threshold on the image as displayed and graded `latitude_ev` stops darker and brighter
+    /// under the same curve, so that a user grading the EXR finds no noise the sampler left.
+    /// 0 judges the displayed image only.
+    pub latitude_ev: f64,
     /// Rows `start..end` that take samples after the first pass: a tile of one frame split
     /// across machines (default `None`: every row). The first pass still covers the whole image,
     /// so that the threshold map sees every pixel; the budget, the converged fraction and the
@@ -192,6 +197,7 @@ impl Default for AdaptiveSettings {
             error_estimate: ErrorEstimate::HalfBuffers,
             saliency_weight: 0.0,
             use_velocity: true,
+            latitude_ev: 2.0,
             rows: None,
         }
     }
@@ -202,8 +208,20 @@ impl AdaptiveSettings {
     pub fn units(&self) -> &'static str {
         match (self.sampler, self.visibility) {
             (SamplerKind::Variance, _) => "Cycles relative error (dimensionless)",
-            (_, Visibility::Display) => "display luminance, cd/m^2",
+            (_, Visibility::Display) => {
+                "scene luminance, cd/m^2 (display thresholds over the tone curve's slope; 1e30 where every grade clips)"
+            }
             (_, Visibility::Scene) => "scene luminance, cd/m^2",
+        }
+    }
+
+    /// The grades the perceptual threshold holds at, stops: 0 (as displayed), then −L and +L
+    /// for the latitude L when it is positive.
+    pub fn grades_ev(&self) -> Vec<f64> {
+        if self.latitude_ev > 0.0 {
+            vec![0.0, -self.latitude_ev, self.latitude_ev]
+        } else {
+            vec![0.0]
         }
     }
 
@@ -281,6 +299,12 @@ impl AdaptiveSettings {
         if !(w.is_finite() && w > 0.0) {
             return bad(format!(
                 "adaptation window (--adaptation-window) must be positive, got {w} degrees"
+            ));
+        }
+        if !(self.latitude_ev.is_finite() && (0.0..=10.0).contains(&self.latitude_ev)) {
+            return bad(format!(
+                "exposure latitude (--latitude) must be in [0, 10] stops, got {}",
+                self.latitude_ev
             ));
         }
         if self.guide_spp == 0 {
@@ -456,6 +480,25 @@ pub fn render_adaptive(
     let pass = render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
     st.unreported_render = pass.wall;
     st.stats += pass;
+    if budget_total.is_some_and(|b| st.region_samples() as f64 >= b as f64 - 0.002 * n_px as f64) {
+        // The first pass spent the budget: nothing is left to steer, so nothing is judged
+        // (judging would only cost time, as the guide and threshold maps did at 8 spp).
+        st.report(&vec![f32::INFINITY; st.film.len()], progress);
+        return Ok(AdaptiveResult {
+            film: st.film,
+            stats: st.stats,
+            guide_stats: None,
+            passes: st.passes,
+            stop: StopReason::Budget,
+            converged_fraction: 0.0,
+            threshold: None,
+            error: None,
+            units: s.units(),
+            decision_time: Duration::ZERO,
+            wall: start.elapsed(),
+            velocity,
+        });
+    }
     let mut criterion = match s.sampler {
         SamplerKind::Perceptual => {
             let motion = velocity

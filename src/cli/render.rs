@@ -144,6 +144,15 @@ pub struct SamplingArgs {
         help_heading = "Adaptive sampling"
     )]
     pub adaptation_window: f64,
+    /// Exposure latitude of the perceptual threshold, stops: noise stays invisible on the image
+    /// as displayed and graded this many stops darker and brighter. 0: as displayed only.
+    #[arg(
+        long,
+        value_name = "EV",
+        default_value_t = 2.0,
+        help_heading = "Adaptive sampling"
+    )]
+    pub latitude: f64,
     /// Pixels per degree of the viewer (default: FLIP's 0.7 m, 3840-pixel monitor at 0.7 m,
     /// 67.0 ppd).
     #[arg(long, value_name = "PPD", help_heading = "Adaptive sampling")]
@@ -198,6 +207,7 @@ impl SamplingArgs {
             tone,
             variance_threshold: self.noise_threshold,
             guide_spp: self.guide_spp,
+            latitude_ev: self.latitude,
             rows: None,
         };
         settings.validate()?;
@@ -572,7 +582,7 @@ pub(super) fn summary_line(
         None => String::new(),
     };
     format!(
-        "{}{frame}: {w}×{h}, {} sampler, {:.1} spp mean ({} passes{}), {}, {:.1} % of pixels below threshold, \
+        "{}{frame}: {w}×{h}, {} sampler, {:.1} spp mean ({} passes{}), {}, {}, \
          {:.2} s ({}), {:.2} M samples/s, {:.2} M rays/s, {} non-finite samples dropped, \
          viewer at {:.1} pixels per degree -> {}, {} ({look})",
         scene.path.display(),
@@ -585,7 +595,13 @@ pub(super) fn summary_line(
             String::new()
         },
         result.stop.describe(),
-        100.0 * result.converged_fraction,
+        match result.threshold {
+            Some(_) => format!(
+                "{:.1} % of pixels below threshold",
+                100.0 * result.converged_fraction
+            ),
+            None => "no threshold judged".to_string(),
+        },
         secs,
         time_split(result),
         (st.samples + guide) as f64 / st.wall.as_secs_f64().max(1e-9) / 1e6,
