@@ -18,6 +18,9 @@ Display model: ColorVideoVDP's `standard_4k` (30-inch 4K SDR monitor, 200 cd/m²
 0.75 m: about 75 pixels per degree, close to the 67 ppd aleph's judges assume). The PNGs are
 sRGB display values, as a viewer sees them.
 
+The same renders graded 2 stops darker and brighter (the ends of the exposure latitude) are in
+`DIR/ev-2` and `DIR/ev+2`: pass either as DIR to judge that grade.
+
 Install (CPU PyTorch comes with it; about 3 GB):
     python3 -m venv benches/.venv && benches/.venv/bin/pip install cvvdp
 Run:
@@ -56,7 +59,11 @@ def arms_in(frames_dir):
 def spp_used(directory):
     """(arm, budget) -> mean spp actually used, from speedup.csv."""
     used = {}
-    with open(os.path.join(directory, "speedup.csv")) as f:
+    path = os.path.join(directory, "speedup.csv")
+    if not os.path.exists(path):
+        # A graded subdirectory (DIR/ev-2, DIR/ev+2) shares its parent's table.
+        path = os.path.join(directory, os.pardir, "speedup.csv")
+    with open(path) as f:
         for row in csv.DictReader(f):
             used[(row["sampler"], float(row["budget_spp"]))] = (
                 float(row["mean_spp"]),

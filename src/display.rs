@@ -332,3 +332,37 @@ fn labelled_grid(
     }
     (buf, sw as u32, sh as u32)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_grade_is_the_frozen_curve_of_the_scaled_input() {
+        // Exposure and WRP curves, frozen from one image: the image graded by ±2 EV maps as
+        // the image × 2^±2 does under the ungraded frozen curve (and is not the same image).
+        let (w, h) = (16, 8);
+        let rgb: Vec<f32> = (0..w * h * 3)
+            .map(|i| 0.01 + (i % 37) as f32 * 0.05)
+            .collect();
+        for op in [Operator::Exposure, Operator::Wrp] {
+            let s = ToneMapSettings {
+                operator: op,
+                ..ToneMapSettings::default()
+            };
+            let f = FrozenToneMap::new(&rgb, w, h, &s).unwrap();
+            for ev in [-2.0, 2.0] {
+                let scaled: Vec<f32> = rgb.iter().map(|v| v * 2f32.powf(ev as f32)).collect();
+                let a = f.graded(ev).map(&rgb).unwrap();
+                let b = f.map(&scaled).unwrap();
+                for (x, y) in a.iter().zip(&b) {
+                    assert!(
+                        (x - y).abs() <= 1e-6 * y.abs().max(1.0),
+                        "{op:?} {ev}: {x} vs {y}"
+                    );
+                }
+                assert_ne!(a, f.map(&rgb).unwrap());
+            }
+        }
+    }
+}

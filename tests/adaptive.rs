@@ -354,6 +354,25 @@ fn speedup_runs_end_to_end_on_a_tiny_scene() {
     let csv = std::fs::read_to_string(out.join("speedup.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 3 * 3);
     assert!(csv.starts_with("sampler,budget_spp,mean_spp"));
+    // Judged at both ends of the exposure latitude too, with their display images and
+    // speedup tables, and against the oracle.
+    assert!(
+        csv.lines()
+            .next()
+            .unwrap()
+            .ends_with("flip_mean_ev+2,flip_p99_ev+2")
+    );
+    for grade in ["ev-2", "ev+2"] {
+        let img = image::open(out.join(grade).join("perceptual-8spp.png")).unwrap();
+        assert_eq!((img.width(), img.height()), (24, 24));
+        assert!(out.join(grade).join("reference.png").exists());
+    }
+    assert!(
+        table.contains("Equal FLIP p99 at −2 EV") && table.contains("Equal FLIP mean at +2 EV"),
+        "{table}"
+    );
+    assert!(table.contains("Against the oracle"), "{table}");
+    assert!(out.join("oracle").join("8spp.png").exists());
     let plot = image::open(out.join("speedup.png")).unwrap();
     assert_eq!((plot.width(), plot.height()), (1200, 900));
     assert!(

@@ -10,7 +10,7 @@ use crate::display::FrozenToneMap;
 use crate::film::Film;
 use crate::render::{RenderStats, render_albedo};
 use crate::scene::Scene;
-use perception::adaptation::{AdaptationMode, adaptation_luminance, log_average};
+use perception::adaptation::{adaptation_luminance, log_average};
 use perception::csf::EyeTracking;
 use perception::photometry::luminance_image;
 use perception::threshold::ThresholdMapper;
@@ -258,7 +258,7 @@ impl PerceptualCriterion {
             w,
             h,
             &s.tone.view,
-            AdaptationMode::LocalArithmetic,
+            s.threshold.adaptation,
             s.threshold.adaptation_window_deg,
         )?;
         // The slope at the 5×5-pooled mean: at the pixel's own mean it would carry the pixel's

@@ -10,10 +10,10 @@
 //!
 //! # The loop
 //! 1. A uniform pass of `min_spp` samples.
-//! 2. Each pass: the current image and its two half-buffers (even and odd samples) are mapped to
-//!    the luminance in which visibility is judged; the error estimate is e = |Y(A) − Y(B)| / 2,
-//!    averaged over 3×3 pixels so a single lucky pixel is not called converged; the ratio
-//!    r = e / threshold says how far a pixel is from converged.
+//! 2. Each pass: the error estimate from the two half-buffers (even and odd samples) is
+//!    e = |Y(A) − Y(B)| / 2 in scene luminance; the ratio r = e / threshold, averaged over 3×3
+//!    pixels so a single lucky pixel is not called converged, says how far a pixel is from
+//!    converged. (When the first pass spends a sample budget, nothing is judged.)
 //! 3. Pixels with r > t (t = 1: at threshold) get more samples, and so do their 8 neighbours
 //!    (re-opening, as Cycles' box pass does, so thin features are not frozen early). Error falls
 //!    as 1/√n, so a pixel needs about n (r²/t² − 1) more samples; each pass gives that, at most
@@ -25,7 +25,7 @@
 //!    and refinement continues where the ratio is largest.
 //!
 //! # The perceptual threshold
-//! ΔL_T(x) = ΔL_TVI(L_a(x)) · F(x). L_a is recomputed each pass from the current image (a 1°
+//! ΔL_T(x) = ΔL_TVI(L_a(x)) · F(x). L_a is recomputed from the current image (a 1°
 //! Gaussian mean, where noise averages out). The elevation F (spatial frequency and masking) is
 //! computed once, from a **low-noise guide**: a render of direct illumination only (max depth 1,
 //! `guide_spp` samples, independent seed), as Ramasubramanian et al. computed the spatial part
@@ -33,10 +33,17 @@
 //! would let its noise mask itself and stop sampling exactly where noise is worst.
 //!
 //! # Where visibility is judged
-//! [`Visibility::Display`] (default): on the image as displayed, in display cd/m² — the current
-//! image's tone curve is frozen each pass ([`crate::display::FrozenToneMap`]) and applied to the image and both
-//! half-buffers. [`Visibility::Scene`]: in scene luminance, cd/m² = Y × the scene's
-//! `luminance_scale`, as Ramasubramanian et al. did.
+//! [`Visibility::Display`] (default): on the image as displayed. The current image's tone curve
+//! is frozen ([`crate::display::FrozenToneMap`]) and the threshold L_a · C_noise is found in
+//! display cd/m² at each grade of the **exposure latitude** ([`AdaptiveSettings::latitude_ev`],
+//! default ±2 EV: the image as displayed, and its input × 2^−2 and × 2^2 under the same curve),
+//! then referred to scene luminance through the curve's slope at the pixel (dL_d/dY across ±5 %
+//! of the 5×5-pooled mean). The pixel's threshold is the smallest of these: noise must stay
+//! invisible however a user grades the EXR within the latitude, so a highlight that clips on
+//! the display keeps the samples its noise needs when graded darker. The error is measured in
+//! scene luminance, and the threshold map is recomputed only when the mean spp has grown 4×
+//! since its last computation. [`Visibility::Scene`]: in scene luminance, cd/m² = Y × the
+//! scene's `luminance_scale` (graded the same way), as Ramasubramanian et al. did.
 //!
 //! # Determinism
 //! Every decision is a function of the film, which is bit-identical for any thread count, so

@@ -183,7 +183,7 @@ impl SamplingArgs {
         }
         let threshold = perception::threshold::ThresholdParams {
             adaptation_window_deg: self.adaptation_window,
-            ..Default::default()
+            ..AdaptiveSettings::default().threshold
         };
         let settings = AdaptiveSettings {
             sampler,

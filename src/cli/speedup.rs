@@ -293,6 +293,15 @@ fn report(sw: &Sweep, args: &SpeedupArgs, scene: &str) -> String {
             let _ = writeln!(s, "| {b} | {:.2}× | {:.2}× |", c.mean, c.p99);
         }
     }
+    if !sw.oracle.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## Against the oracle\n\nSpearman rank correlation of the perceptual sampler's samples per pixel with the oracle's allocation at the displayed exposure (from the same per-pixel fits: n_i ∝ a_i^(1/(1+β)) for FLIP mean, a_i^(1/β) for FLIP p99, one ranking); maps side by side in `oracle/Bspp.png` (oracle for the mean, for p99, aleph's; log scale from budget/8 to 8 × budget):\n\n| budget spp | rank correlation with the oracle |\n|---|---|"
+        );
+        for o in &sw.oracle {
+            let _ = writeln!(s, "| {} | {:.3} |", o.budget, o.rank);
+        }
+    }
     let perc: Vec<&Row> = rows
         .iter()
         .filter(|r| r.sampler == Arm::Perceptual)

@@ -18,8 +18,8 @@
 mod sweep;
 
 pub use sweep::{
-    Arm, CSV_FIELDS, Row, SpeedupError, Sweep, SweepSpec, frame_key, frame_list, grade_dir,
-    image_path, reference_key, sweep,
+    Arm, CSV_FIELDS, OracleRow, Row, SpeedupError, Sweep, SweepSpec, frame_key, frame_list,
+    grade_dir, image_path, reference_key, sweep,
 };
 
 use crate::display::FrozenToneMap;
@@ -273,9 +273,16 @@ pub struct Ceiling {
     pub p99: f64,
 }
 
-/// Fits the ceiling from two uniform renders' 5×5-filtered FLIP maps (`n_lo`, `map_lo`),
-/// (`n_hi`, `map_hi`), evaluated at budget `n`.
-pub fn ceiling(n_lo: f64, map_lo: &[f32], n_hi: f64, map_hi: &[f32], n: f64) -> Option<Ceiling> {
+/// Per-pixel FLIP coefficients from two uniform renders' 5×5-filtered FLIP maps (`n_lo`,
+/// `map_lo`), (`n_hi`, `map_hi`): β from the ratio of the image means, and a_i (each pixel's
+/// error at one sample, e_i = a_i n^−β) as the geometric mean of the two maps' estimates.
+/// `None` when the maps do not fall with n.
+pub fn flip_coefficients(
+    n_lo: f64,
+    map_lo: &[f32],
+    n_hi: f64,
+    map_hi: &[f32],
+) -> Option<(f64, Vec<f64>)> {
     let mean = |m: &[f32]| m.iter().map(|&v| v as f64).sum::<f64>() / m.len() as f64;
     let (m_lo, m_hi) = (mean(map_lo), mean(map_hi));
     if !(m_lo > 0.0 && m_hi > 0.0 && n_hi > n_lo) {
@@ -285,12 +292,65 @@ pub fn ceiling(n_lo: f64, map_lo: &[f32], n_hi: f64, map_hi: &[f32], n: f64) -> 
     if beta.is_nan() || beta <= 0.01 {
         return None;
     }
-    let a: Vec<f64> = map_lo
+    let a = map_lo
         .iter()
         .zip(map_hi)
         .map(|(&l, &h)| ((l as f64 * n_lo.powf(beta)) * (h as f64 * n_hi.powf(beta))).sqrt())
-        .filter(|&a| a > 0.0)
         .collect();
+    Some((beta, a))
+}
+
+/// The oracle's allocations at mean budget `n` from FLIP coefficients (`beta`, `a`): for FLIP
+/// mean, n_i ∝ a_i^(1/(1+β)) (minimising Σ a_i n_i^−β at Σ n_i fixed); for FLIP p99, n_i ∝
+/// a_i^(1/β) (every pixel brought to one error). Each is scaled to mean `n`.
+pub fn oracle_allocations(beta: f64, a: &[f64], n: f64) -> (Vec<f32>, Vec<f32>) {
+    let scaled = |e: f64| -> Vec<f32> {
+        let w: Vec<f64> = a.iter().map(|&ai| ai.max(0.0).powf(e)).collect();
+        let k = n * w.len() as f64 / w.iter().sum::<f64>().max(1e-300);
+        w.iter().map(|&wi| (wi * k) as f32).collect()
+    };
+    (scaled(1.0 / (1.0 + beta)), scaled(1.0 / beta))
+}
+
+/// Spearman's rank correlation of two equally long samples (ties ranked by their mean rank).
+///
+/// # Panics
+/// If the lengths differ.
+pub fn rank_correlation(x: &[f32], y: &[f32]) -> f64 {
+    assert_eq!(x.len(), y.len());
+    let ranks = |v: &[f32]| -> Vec<f64> {
+        let mut idx: Vec<usize> = (0..v.len()).collect();
+        idx.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
+        let mut r = vec![0.0; v.len()];
+        let mut i = 0;
+        while i < idx.len() {
+            let mut j = i;
+            while j + 1 < idx.len() && v[idx[j + 1]] == v[idx[i]] {
+                j += 1;
+            }
+            for &k in &idx[i..=j] {
+                r[k] = 0.5 * (i + j) as f64;
+            }
+            i = j + 1;
+        }
+        r
+    };
+    let (rx, ry) = (ranks(x), ranks(y));
+    let m = (x.len() as f64 - 1.0) / 2.0;
+    let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+    for (a, b) in rx.iter().zip(&ry) {
+        sxy += (a - m) * (b - m);
+        sxx += (a - m) * (a - m);
+        syy += (b - m) * (b - m);
+    }
+    sxy / (sxx * syy).sqrt().max(1e-300)
+}
+
+/// Fits the ceiling from two uniform renders' 5×5-filtered FLIP maps (`n_lo`, `map_lo`),
+/// (`n_hi`, `map_hi`), evaluated at budget `n`.
+pub fn ceiling(n_lo: f64, map_lo: &[f32], n_hi: f64, map_hi: &[f32], n: f64) -> Option<Ceiling> {
+    let (beta, a) = flip_coefficients(n_lo, map_lo, n_hi, map_hi)?;
+    let a: Vec<f64> = a.into_iter().filter(|&a| a > 0.0).collect();
     if a.is_empty() {
         return None;
     }
@@ -399,6 +459,35 @@ mod tests {
         };
         assert!((c.mean - expected).abs() < 1e-6, "{} vs {expected}", c.mean);
         assert!(c.mean > 1.0 && c.mean < 1.2);
+    }
+
+    #[test]
+    fn rank_correlation_of_monotone_reversed_and_tied_samples() {
+        let x: Vec<f32> = (0..50).map(|i| i as f32).collect();
+        let up: Vec<f32> = x.iter().map(|v| v.powi(3) + 1.0).collect();
+        let down: Vec<f32> = x.iter().map(|v| -v).collect();
+        assert!((rank_correlation(&x, &up) - 1.0).abs() < 1e-12);
+        assert!((rank_correlation(&x, &down) + 1.0).abs() < 1e-12);
+        // Spearman of (1, 2, 3, 4) against (1, 1, 2, 2): ranks (0.5, 0.5, 2.5, 2.5) against
+        // (0, 1, 2, 3) give 4 / sqrt(4 · 5) = 0.894.
+        let r = rank_correlation(&[1.0, 2.0, 3.0, 4.0], &[1.0, 1.0, 2.0, 2.0]);
+        assert!((r - 4.0 / 20f64.sqrt()).abs() < 1e-12, "{r}");
+    }
+
+    #[test]
+    fn oracle_allocations_of_a_two_region_image() {
+        // a = 4 and 1, β = 0.5: the mean-optimal allocation is ∝ a^(2/3) (2.52 : 1), the p99
+        // one ∝ a^2 (16 : 1), each with mean n.
+        let a = [4.0, 1.0];
+        let (mean, p99) = oracle_allocations(0.5, &a, 10.0);
+        let w = 4f64.powf(2.0 / 3.0);
+        assert!(
+            (mean[0] as f64 - 20.0 * w / (w + 1.0)).abs() < 1e-4,
+            "{mean:?}"
+        );
+        assert!((mean[1] as f64 - 20.0 / (w + 1.0)).abs() < 1e-4);
+        assert!((p99[0] as f64 - 20.0 * 16.0 / 17.0).abs() < 1e-4, "{p99:?}");
+        assert!((p99[1] as f64 - 20.0 / 17.0).abs() < 1e-4);
     }
 
     #[test]

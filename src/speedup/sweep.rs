@@ -1,10 +1,14 @@
 //! The equal-quality sweep: cached references, every sampler at every budget, per frame.
 
-use super::{Ceiling, GRADES_EV, Judge, Scores, ceiling};
+use super::{
+    Ceiling, GRADES_EV, Judge, Scores, ceiling, flip_coefficients, oracle_allocations,
+    rank_correlation,
+};
 use crate::adaptive::{AdaptiveSettings, SamplerKind, render_adaptive};
 use crate::display::FrozenToneMap;
 use crate::film::Film;
 use crate::integrator::Strategy;
+use crate::output::false_colour;
 use crate::output::{AtomicOutputs, ChannelData, OutputError, write_exr, write_png};
 use crate::render::render_uniform;
 use crate::scene::{Scene, SceneDescription};
@@ -349,6 +353,9 @@ pub struct Sweep {
     pub floor: Scores,
     /// Ceilings of the first frame, per budget.
     pub ceilings: Vec<(f64, Ceiling)>,
+    /// How the perceptual sampler's allocation ranks pixels against the oracle's, per budget
+    /// (first frame).
+    pub oracle: Vec<OracleRow>,
     /// Per-frame rows as CSV (header included).
     pub per_frame_csv: String,
     /// Number of frames (0 for a still).
@@ -361,6 +368,16 @@ pub struct Sweep {
     pub width: usize,
     /// Image size.
     pub height: usize,
+}
+
+/// The perceptual sampler's allocation against the oracle's at one budget.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OracleRow {
+    /// Average budget, spp.
+    pub budget: f64,
+    /// Spearman correlation of the perceptual counts with the oracle's (both oracles rank
+    /// pixels by a_i, so one number serves both).
+    pub rank: f64,
 }
 
 /// Errors of a sweep.
@@ -402,6 +419,8 @@ struct SweepState {
     floor: Acc,
     per_frame: String,
     uniform_maps: Vec<(f64, Vec<f32>)>,
+    /// The perceptual sampler's samples per pixel at each budget (first frame).
+    perceptual_counts: Vec<(f64, Vec<f32>)>,
     view: ViewingConditions,
 }
 
@@ -455,6 +474,7 @@ pub fn sweep(
         floor: Acc::default(),
         per_frame: format!("{CSV_FIELDS}\n"),
         uniform_maps: Vec::new(),
+        perceptual_counts: Vec::new(),
         view: base.tone.view,
     };
     for (k, &frame) in frames.iter().enumerate() {
@@ -502,10 +522,18 @@ pub fn sweep(
     } else {
         Vec::new()
     };
+    let oracle = if maps.len() >= 3 {
+        let (lo, hi) = (&maps[1], &maps[maps.len() - 1]);
+        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+        oracle_sheets(lo, hi, &st.perceptual_counts, (w, h), dir)?
+    } else {
+        Vec::new()
+    };
     Ok(Sweep {
         rows,
         floor: st.floor.row(Arm::Uniform, 0.0).scores,
         ceilings,
+        oracle,
         per_frame_csv: st.per_frame,
         frames: frames.iter().flatten().count(),
         operator,
@@ -513,6 +541,55 @@ pub fn sweep(
         width: scene.camera.width as usize,
         height: scene.camera.height as usize,
     })
+}
+
+/// For each budget of the perceptual sampler: the oracle's allocations (FLIP mean, FLIP p99)
+/// from the uniform maps `lo` and `hi`, the rank correlations with the sampler's, and a sheet
+/// `DIR/oracle/Bspp.png` of the three maps side by side (oracle for the mean, for p99, aleph's;
+/// magma, one log scale from 1/8 to 8 times the budget).
+fn oracle_sheets(
+    lo: &(f64, Vec<f32>),
+    hi: &(f64, Vec<f32>),
+    counts: &[(f64, Vec<f32>)],
+    (w, h): (usize, usize),
+    dir: &Path,
+) -> Result<Vec<OracleRow>, SpeedupError> {
+    let Some((beta, a)) = flip_coefficients(lo.0, &lo.1, hi.0, &hi.1) else {
+        return Ok(Vec::new());
+    };
+    let mut out = AtomicOutputs::new();
+    let mut rows = Vec::new();
+    for (budget, aleph) in counts {
+        let (mean, p99) = oracle_allocations(beta, &a, *budget);
+        rows.push(OracleRow {
+            budget: *budget,
+            rank: rank_correlation(&mean, aleph),
+        });
+        let (lo_v, hi_v) = (*budget as f32 / 8.0, *budget as f32 * 8.0);
+        let panels: Vec<Vec<u8>> = [&mean, &p99, aleph]
+            .iter()
+            .map(|m| false_colour(m, lo_v, hi_v))
+            .collect();
+        let gap = 4;
+        let sw = 3 * w + 2 * gap;
+        let mut sheet = vec![255u8; sw * h * 3];
+        for (k, p) in panels.iter().enumerate() {
+            for y in 0..h {
+                let dst = (y * sw + k * (w + gap)) * 3;
+                sheet[dst..dst + 3 * w].copy_from_slice(&p[y * w * 3..(y + 1) * w * 3]);
+            }
+        }
+        let path = dir.join("oracle").join(format!("{budget}spp.png"));
+        std::fs::create_dir_all(dir.join("oracle")).map_err(|source| SpeedupError::Dir {
+            path: dir.join("oracle"),
+            source,
+        })?;
+        out.stage(&path, |wr| {
+            write_png(wr, &path, sw as u32, h as u32, &sheet)
+        })?;
+    }
+    out.commit()?;
+    Ok(rows)
 }
 
 /// One frame's context in a sweep.
@@ -591,6 +668,10 @@ fn sweep_frame(
             let (scores, fmap) = judge.score_with_map(&rgb)?;
             if arm == Arm::Uniform && ctx.first {
                 st.uniform_maps.push((budget, fmap));
+            }
+            if arm == Arm::Perceptual && ctx.first {
+                let counts = r.film.pixels.iter().map(|p| p.n as f32).collect();
+                st.perceptual_counts.push((budget, counts));
             }
             let row = Row {
                 sampler: arm,
