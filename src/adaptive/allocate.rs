@@ -77,6 +77,35 @@ pub(crate) fn allocate(film: &Film, ratio: &[f32], t_level: f32, max_spp: u32) -
     Allocation { want, reopen }
 }
 
+/// Under a sample budget B, no pixel whose noise could be seen is left below FLOOR_SHARE · B
+/// samples: the perceptual threshold ranks pixels only roughly as the judges do (Spearman
+/// correlation 0.3–0.6 with the FLIP oracle's ranking on the Cornell box), and starving the
+/// pixels it misranks cost more than its savings elsewhere. Perceptual against uniform at equal
+/// score, holodeck 256², 64 / 128 / 256 spp, without → with the floor: FLIP p99 at −2 EV 0.84 /
+/// 0.86 / — → 0.99 / 1.10 / 1.23×; ColorVideoVDP JOD 0.95 / 0.85 / — → 1.03 / 1.22 / 1.36×
+/// (— : never reached uniform's score). With pixel totals on powers of two, 1/2 is the only
+/// share between none and uniform.
+pub(crate) const FLOOR_SHARE: f64 = 0.5;
+
+/// Pixels below `floor` samples that the allocation passes over get a doubling (to the next
+/// power-of-two total, never past `max_spp`), unless their ratio is exactly 0: no noise at all
+/// (every sample equal, in them and their neighbours) or a tone curve that clips them at every
+/// grade, so nothing a viewer could see.
+pub(crate) fn raise_to_floor(
+    alloc: &mut Allocation,
+    film: &Film,
+    ratio: &[f32],
+    floor: u32,
+    max_spp: u32,
+) {
+    for (i, (c, px)) in alloc.want.iter_mut().zip(&film.pixels).enumerate() {
+        if *c == 0 && px.n < floor.min(max_spp) && ratio[i] > 0.0 {
+            *c = ((px.n + 1).next_power_of_two().min(max_spp)).saturating_sub(px.n);
+            alloc.reopen[i] = true;
+        }
+    }
+}
+
 /// Scales an allocation down to `remaining` samples: deterministic rounding down, then the
 /// leftover samples one each in pixel order of decreasing ratio.
 pub(crate) fn fit_to_budget(
@@ -117,6 +146,23 @@ pub(crate) fn fit_to_budget(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_floor_lifts_visible_pixels_only() {
+        let mut film = Film::new(4, 1);
+        for (p, n) in film.pixels.iter_mut().zip([8, 8, 32, 8]) {
+            p.n = n;
+        }
+        let mut a = Allocation {
+            want: vec![0, 0, 0, 8],
+            reopen: vec![false, false, false, true],
+        };
+        // Pixel 0 is below the floor with visible noise; pixel 1 has none; pixel 2 is above the
+        // floor; pixel 3 already gets samples.
+        raise_to_floor(&mut a, &film, &[0.5, 0.0, 0.5, 2.0], 16, 4096);
+        assert_eq!(a.want, [8, 0, 0, 8]);
+        assert!(a.reopen[0] && !a.reopen[1]);
+    }
 
     #[test]
     fn totals_land_on_powers_of_two() {

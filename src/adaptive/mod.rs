@@ -529,6 +529,13 @@ pub fn render_adaptive(
             break (judgement, reason);
         }
         let mut alloc = allocate(&st.film, &ratio, st.t_level, s.max_spp);
+        if let Some(b) = s
+            .budget_spp
+            .filter(|_| s.sampler == SamplerKind::Perceptual)
+        {
+            let floor = (allocate::FLOOR_SHARE * b).floor() as u32;
+            allocate::raise_to_floor(&mut alloc, &st.film, &ratio, floor, s.max_spp);
+        }
         st.clip(&mut alloc);
         if alloc.total() == 0 {
             let reason = if converged >= s.converged_fraction {
