@@ -363,7 +363,7 @@ impl PerceptualCriterion {
         let r: Vec<f32> = e
             .par_iter()
             .zip(threshold.par_iter())
-            .map(|(&e, &t)| if t >= NO_THRESHOLD { 0.0 } else { e / t })
+            .map(|(&e, &t)| e / t)
             .collect();
         crate::math::box_mean(&r, w, h, 1)
             .par_iter()
