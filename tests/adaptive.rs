@@ -442,3 +442,41 @@ fn a_spent_time_budget_stops_before_another_pass() {
     assert_eq!(r.passes.len(), 1);
     assert_eq!(r.mean_spp(), s.min_spp as f64);
 }
+
+#[test]
+fn converged_counts_follow_the_models_own_oracle() {
+    // The samples a pixel needs to reach its threshold are (σ_i / ΔL_i)², with σ_i its
+    // per-sample standard deviation of scene luminance (measured from an independent 256-spp
+    // uniform render) and ΔL_i its threshold (the sampler's final map). Run until converged,
+    // the sampler's counts must rank pixels as that oracle does; uniform counts, or counts set
+    // by anything else, would not (Spearman ≈ 0).
+    let mut desc =
+        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
+    desc.camera.resolution = [40, 40];
+    let scene = Scene::load_description(desc.clone()).unwrap();
+    let s = AdaptiveSettings {
+        max_spp: 1024,
+        ..AdaptiveSettings::default()
+    };
+    let r = render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap();
+    let threshold = r.threshold.unwrap();
+    desc.render.seed = Some(0x5EED);
+    let other = Scene::load_description(desc).unwrap();
+    let (film, _) = render_uniform(&other, Strategy::Mis, 256, &|_| {});
+    let k = scene.settings.luminance_scale as f64;
+    let (mut need, mut got) = (Vec::new(), Vec::new());
+    for (i, p) in film.pixels.iter().enumerate() {
+        let sigma = p.lum_std_error() * (p.n as f64).sqrt() * k;
+        // Pixels the curve clips at every grade have no threshold: nothing to rank.
+        if threshold[i] < 1e29 {
+            need.push(((sigma / threshold[i] as f64).powi(2)) as f32);
+            got.push(r.film.pixels[i].n as f32);
+        }
+    }
+    let rho = aleph::speedup::rank_correlation(&need, &got);
+    eprintln!(
+        "oracle against converged counts: Spearman {rho:.3} over {} pixels",
+        need.len()
+    );
+    assert!(rho > 0.5, "Spearman {rho:.3} over {} pixels", need.len());
+}
