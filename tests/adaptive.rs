@@ -157,11 +157,13 @@ fn highlights_clipped_on_display_keep_their_samples_under_the_exposure_latitude(
     // Until converged (a sample budget would lift every noisy pixel to half of it, clipped or
     // not), capped at 128 spp.
     let spp_left = |latitude_ev: f64| {
-        let s = AdaptiveSettings {
+        let mut s = AdaptiveSettings {
             max_spp: 128,
             latitude_ev,
             ..AdaptiveSettings::default()
         };
+        // A display that clips: the plain exposure (the default, Reinhard's, keeps highlights).
+        s.tone.operator = perception::tmo::Operator::Exposure;
         let r = render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap();
         // The middle rows, where the left half clips (its corners, further from the light, do
         // not).

@@ -195,7 +195,7 @@ impl Default for AdaptiveSettings {
             converged_fraction: 0.995,
             visibility: Visibility::Display,
             tone: ToneMapSettings {
-                operator: perception::tmo::Operator::Exposure,
+                operator: perception::tmo::Operator::Reinhard,
                 ..ToneMapSettings::default()
             },
             threshold: ThresholdParams::default(),

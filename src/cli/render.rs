@@ -244,9 +244,10 @@ pub struct RenderArgs {
     /// Maximum path depth (overrides render.max_depth).
     #[arg(long, value_name = "N")]
     pub(super) max_depth: Option<u32>,
-    /// Exposure of the PNG in stops (radiance × 2^EV before sRGB encoding) when no --tonemap is
-    /// given. Default: automatic, mapping the log-average luminance to 0.18 (also the curve the
-    /// perceptual sampler judges with).
+    /// A plain exposure for the PNG, in stops (radiance × 2^EV before sRGB encoding, clipping
+    /// at white), instead of the default display: Reinhard et al. 2002's global operator (key
+    /// 0.18, white at the brightest pixel), which keeps highlights. The perceptual sampler then
+    /// judges with the automatic exposure (log-average luminance to 0.18).
     #[arg(
         long,
         value_name = "EV",
@@ -254,8 +255,8 @@ pub struct RenderArgs {
         conflicts_with = "tonemap"
     )]
     pub(super) exposure: Option<f32>,
-    /// Tone operator for the PNG (the EXR stays linear) and for display visibility. Luminance is
-    /// radiance × the scene's render.luminance_scale.
+    /// Tone operator for the PNG (the EXR stays linear) and for display visibility (default for
+    /// a still: reinhard). Luminance is radiance × the scene's render.luminance_scale.
     #[arg(long, value_enum, value_name = "OP")]
     pub(super) tonemap: Option<OperatorArg>,
     /// Also write false-colour PNGs: OUT.spp.png (samples per pixel, log scale) and
@@ -390,10 +391,13 @@ pub(super) fn still_settings(
     scene: &Scene,
     args: &RenderArgs,
 ) -> anyhow::Result<(AdaptiveSettings, Look)> {
-    let op = args
-        .tonemap
-        .map(Operator::from)
-        .unwrap_or(Operator::Exposure);
+    // The default display keeps highlights (Reinhard et al. 2002, white at the image's
+    // brightest pixel); `--exposure EV` asks for a plain exposure instead.
+    let op = match (args.tonemap, args.exposure) {
+        (Some(op), _) => Operator::from(op),
+        (None, Some(_)) => Operator::Exposure,
+        (None, None) => Operator::Reinhard,
+    };
     let tone = args.tone.settings(
         op,
         scene.camera.width as usize,
@@ -402,9 +406,9 @@ pub(super) fn still_settings(
     let settings =
         args.sampling
             .settings(args.sampler.into(), args.spp, scene.settings.spp, tone)?;
-    let look = match args.tonemap {
-        Some(_) => Look::Tone(settings.tone),
-        None => Look::Exposure(args.exposure),
+    let look = match (args.tonemap, args.exposure) {
+        (None, Some(ev)) => Look::Exposure(Some(ev)),
+        _ => Look::Tone(settings.tone),
     };
     Ok((settings, look))
 }

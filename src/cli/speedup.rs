@@ -39,7 +39,7 @@ pub struct SpeedupArgs {
     /// Worker threads.
     #[arg(long, value_name = "N")]
     threads: Option<usize>,
-    /// Tone operator of the judged display images (default: exposure for a still, as `render`
+    /// Tone operator of the judged display images (default: Reinhard for a still, as `render`
     /// writes; PTYG with the carried adaptation state for a sequence).
     #[arg(long, value_enum, value_name = "OP")]
     tonemap: Option<OperatorArg>,

@@ -340,7 +340,7 @@ pub struct SweepSpec {
     pub seed: u64,
     /// Frames of an animated scene (`None`: its whole range).
     pub frames: Option<(i64, i64)>,
-    /// Tone operator of the judged display (`None`: exposure for a still, PTYG with the
+    /// Tone operator of the judged display (`None`: Reinhard for a still, PTYG with the
     /// carried adaptation state for a sequence).
     pub operator: Option<Operator>,
 }
@@ -463,7 +463,7 @@ pub fn sweep(
     let default_op = if course.is_some() {
         Operator::Ptyg
     } else {
-        Operator::Exposure
+        Operator::Reinhard
     };
     let operator = spec.operator.unwrap_or(default_op);
     let scene_key = reference_key(&desc, spec.reference_spp, spec.seed);
