@@ -488,23 +488,7 @@ pub fn render_adaptive(
     st.unreported_render = pass.wall;
     st.stats += pass;
     if budget_total.is_some_and(|b| st.region_samples() as f64 >= b as f64 - 0.002 * n_px as f64) {
-        // The first pass spent the budget: nothing is left to steer, so nothing is judged
-        // (judging would only cost time, as the guide and threshold maps did at 8 spp).
-        st.report(&vec![f32::INFINITY; st.film.len()], progress);
-        return Ok(AdaptiveResult {
-            film: st.film,
-            stats: st.stats,
-            guide_stats: None,
-            passes: st.passes,
-            stop: StopReason::Budget,
-            converged_fraction: 0.0,
-            threshold: None,
-            error: None,
-            units: s.units(),
-            decision_time: Duration::ZERO,
-            wall: start.elapsed(),
-            velocity,
-        });
+        return Ok(unjudged(st, s, progress, velocity, start));
     }
     let mut criterion = match s.sampler {
         SamplerKind::Perceptual => {
@@ -589,6 +573,32 @@ pub fn render_adaptive(
         wall: start.elapsed(),
         velocity,
     })
+}
+
+/// The result when the first pass spent the budget: nothing is left to steer, so nothing is
+/// judged (judging would only cost time, as the guide and threshold maps did at 8 spp).
+fn unjudged(
+    mut st: LoopState,
+    s: &AdaptiveSettings,
+    progress: &(dyn Fn(&PassReport) + Sync),
+    velocity: Option<VelocityMap>,
+    start: Instant,
+) -> AdaptiveResult {
+    st.report(&vec![f32::INFINITY; st.film.len()], progress);
+    AdaptiveResult {
+        film: st.film,
+        stats: st.stats,
+        guide_stats: None,
+        passes: st.passes,
+        stop: StopReason::Budget,
+        converged_fraction: 0.0,
+        threshold: None,
+        error: None,
+        units: s.units(),
+        decision_time: Duration::ZERO,
+        wall: start.elapsed(),
+        velocity,
+    }
 }
 
 /// Why the loop stops before allocating another pass, if it does: the time budget, the sample
