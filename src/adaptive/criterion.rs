@@ -46,18 +46,6 @@ impl Judgement {
     }
 }
 
-/// Luminance in visibility units of linear RGB under a frozen display map or the scene scale.
-fn visible_luminance(
-    rgb: &[f32],
-    frozen: Option<&FrozenToneMap>,
-    scale: f32,
-) -> perception::Result<Vec<f32>> {
-    match frozen {
-        Some(f) => f.display_luminance(rgb),
-        None => Ok(luminance_image(rgb, scale)),
-    }
-}
-
 /// One grade of the image in which visibility is judged: the displayed curve (or the scene
 /// scale) with the input multiplied by 2^ev.
 struct Grade {
@@ -73,8 +61,12 @@ impl Grade {
         }
     }
 
+    /// Luminance in visibility units: display cd/m² under the graded curve, or scene cd/m².
     fn luminance(&self, rgb: &[f32]) -> perception::Result<Vec<f32>> {
-        visible_luminance(rgb, self.frozen.as_ref(), self.scale)
+        match &self.frozen {
+            Some(f) => f.display_luminance(rgb),
+            None => Ok(luminance_image(rgb, self.scale)),
+        }
     }
 }
 
@@ -292,7 +284,6 @@ impl PerceptualCriterion {
     ) -> perception::Result<(Judgement, Duration)> {
         let (w, h) = (film.width as usize, film.height as usize);
         let scale = scene.settings.luminance_scale;
-        let mean = film.mean_rgb();
         let spp = film.total_samples() as f64 / film.len() as f64;
         if let Some((at, t)) = &self.threshold
             && spp < REFRESH_SPP_FACTOR * at
@@ -301,6 +292,7 @@ impl PerceptualCriterion {
             let error = Self::pooled_error(film, s, scale, &threshold);
             return Ok((Judgement { error, threshold }, Duration::ZERO));
         }
+        let mean = film.mean_rgb();
         let frozen = match s.visibility {
             // A row tile sees the rest of the image at first-pass noise, whose log average is
             // biased low (Jensen's inequality): fitted to it, the curve came out brighter than

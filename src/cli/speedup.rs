@@ -129,28 +129,21 @@ fn scene_name(args: &SpeedupArgs) -> String {
 }
 
 fn csv(rows: &[Row]) -> String {
-    let mut s = String::from(
-        "sampler,budget_spp,mean_spp,guide_spp,wall_s,perception_s,flip_mean,flip_p99,visible_fraction,relmse,flip_mean_ev-2,flip_p99_ev-2,flip_mean_ev+2,flip_p99_ev+2\n",
+    let mut s = format!(
+        "sampler,budget_spp,mean_spp,guide_spp,wall_s,perception_s,{}\n",
+        Scores::CSV_HEADER
     );
     for r in rows {
-        let (d, b) = (r.scores.graded[0], r.scores.graded[1]);
         let _ = writeln!(
             s,
-            "{},{},{:.4},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8},{:.6},{:.6},{:.6},{:.6}",
+            "{},{},{:.4},{:.4},{:.4},{:.4},{}",
             r.sampler.name(),
             r.budget,
             r.mean_spp,
             r.guide_spp,
             r.wall_s,
             r.decision_s,
-            r.scores.flip_mean,
-            r.scores.flip_p99,
-            r.scores.visible_fraction,
-            r.scores.relmse,
-            d.mean,
-            d.p99,
-            b.mean,
-            b.p99
+            r.scores.csv_fields()
         );
     }
     s

@@ -18,7 +18,7 @@
 mod sweep;
 
 pub use sweep::{
-    Arm, CSV_FIELDS, OracleRow, Row, SpeedupError, Sweep, SweepSpec, frame_key, frame_list,
+    Arm, OracleRow, Row, SpeedupError, Sweep, SweepSpec, frame_key, frame_list, frames_csv_header,
     grade_dir, image_path, reference_key, sweep,
 };
 
@@ -63,6 +63,26 @@ pub struct Scores {
 }
 
 impl Scores {
+    /// CSV header of [`Scores::csv_fields`].
+    pub const CSV_HEADER: &'static str = "flip_mean,flip_p99,visible_fraction,relmse,\
+        flip_mean_ev-2,flip_p99_ev-2,flip_mean_ev+2,flip_p99_ev+2";
+
+    /// The scores as CSV fields, in the order of [`Scores::CSV_HEADER`].
+    pub fn csv_fields(&self) -> String {
+        let (d, b) = (self.graded[0], self.graded[1]);
+        format!(
+            "{:.6},{:.6},{:.6},{:.8},{:.6},{:.6},{:.6},{:.6}",
+            self.flip_mean,
+            self.flip_p99,
+            self.visible_fraction,
+            self.relmse,
+            d.mean,
+            d.p99,
+            b.mean,
+            b.p99
+        )
+    }
+
     /// Field-wise `self + k · o` (the grades' `ev` are taken from `o`).
     pub fn add_scaled(&mut self, o: &Scores, k: f64) {
         self.flip_mean += k * o.flip_mean;

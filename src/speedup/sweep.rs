@@ -100,31 +100,26 @@ impl Row {
         )
     }
 
-    /// [`CSV_FIELDS`] but `frame`.
+    /// The columns of [`frames_csv_header`] but `frame`.
     pub fn csv_fields(&self) -> String {
-        let s = &self.scores;
-        let (d, b) = (s.graded[0], s.graded[1]);
         format!(
-            "{},{},{:.4},{:.4},{:.6},{:.6},{:.6},{:.8},{:.6},{:.6},{:.6},{:.6}",
+            "{},{},{:.4},{:.4},{}",
             self.sampler.name(),
             self.budget,
             self.mean_spp,
             self.wall_s,
-            s.flip_mean,
-            s.flip_p99,
-            s.visible_fraction,
-            s.relmse,
-            d.mean,
-            d.p99,
-            b.mean,
-            b.p99
+            self.scores.csv_fields()
         )
     }
 }
 
-/// Header of the per-frame CSV (`frames.csv`).
-pub const CSV_FIELDS: &str = "frame,sampler,budget_spp,mean_spp,wall_s,flip_mean,flip_p99,\
-    visible_fraction,relmse,flip_mean_ev-2,flip_p99_ev-2,flip_mean_ev+2,flip_p99_ev+2";
+/// Header of the per-frame CSV (`frames.csv`): `frame`, then [`Row::csv_fields`]'s columns.
+pub fn frames_csv_header() -> String {
+    format!(
+        "frame,sampler,budget_spp,mean_spp,wall_s,{}",
+        Scores::CSV_HEADER
+    )
+}
 
 /// The cache key of a scene's references: FNV-1a over the scene file, its meshes and the
 /// settings that change a reference (resolution, spp, seed, depth, aleph's version). A
@@ -472,7 +467,7 @@ pub fn sweep(
             .map(|_| Acc::default())
             .collect(),
         floor: Acc::default(),
-        per_frame: format!("{CSV_FIELDS}\n"),
+        per_frame: format!("{}\n", frames_csv_header()),
         uniform_maps: Vec::new(),
         perceptual_counts: Vec::new(),
         view: base.tone.view,
