@@ -104,6 +104,29 @@ fn pool_rgb(rgb: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
         .collect()
 }
 
+/// The current image's 5×5-pooled mean, as the grades' slopes read it: the slope is taken at
+/// the pooled mean because at the pixel's own mean it would carry the pixel's noise into the
+/// threshold (and make it flicker from frame to frame). Computed once per threshold map, shared
+/// by the grades.
+struct PooledMean {
+    /// Pooled interleaved RGB × 1.05 and × 0.95: the ends of the slope's ±5 % interval.
+    up: Vec<f32>,
+    down: Vec<f32>,
+    /// Pooled scene luminance, cd/m².
+    y: Vec<f32>,
+}
+
+impl PooledMean {
+    fn new(mean: &[f32], w: usize, h: usize, scale: f32) -> PooledMean {
+        let pooled = pool_rgb(mean, w, h, 2);
+        PooledMean {
+            up: pooled.iter().map(|v| v * 1.05).collect(),
+            down: pooled.iter().map(|v| v * 0.95).collect(),
+            y: luminance_image(&pooled, scale),
+        }
+    }
+}
+
 impl PerceptualCriterion {
     pub fn new(
         scene: &Scene,
@@ -242,8 +265,8 @@ impl PerceptualCriterion {
         lf: &[f32],
         grade: &Grade,
         noise_contrast: &[f32],
-        pooled: &[f32],
-        (w, h, scale): (usize, usize, f32),
+        pooled: &PooledMean,
+        (w, h): (usize, usize),
     ) -> perception::Result<Vec<f32>> {
         let adapt = adaptation_luminance(
             lf,
@@ -253,11 +276,9 @@ impl PerceptualCriterion {
             s.threshold.adaptation,
             s.threshold.adaptation_window_deg,
         )?;
-        // The slope at the 5×5-pooled mean: at the pixel's own mean it would carry the pixel's
-        // noise into the threshold (and make it flicker from frame to frame).
-        let up = grade.luminance(&pooled.iter().map(|v| v * 1.05).collect::<Vec<_>>())?;
-        let down = grade.luminance(&pooled.iter().map(|v| v * 0.95).collect::<Vec<_>>())?;
-        let y = luminance_image(pooled, scale);
+        let up = grade.luminance(&pooled.up)?;
+        let down = grade.luminance(&pooled.down)?;
+        let y = &pooled.y;
         Ok(adapt
             .par_iter()
             .zip(noise_contrast.par_iter())
@@ -330,9 +351,9 @@ impl PerceptualCriterion {
         // its curve's slope: noise must be invisible however the image is graded within the
         // latitude. A minimum of noise-free maps, so it cannot flicker with the noise.
         let mut threshold = vec![NO_THRESHOLD; w * h];
-        let pooled = pool_rgb(&mean, w, h, 2);
+        let pooled = PooledMean::new(&mean, w, h, scale);
         for ((grade, lf), contrast) in grades.iter().zip(&lfs).zip(&st.noise_contrast) {
-            let t = Self::threshold_at_grade(s, lf, grade, contrast, &pooled, (w, h, scale))?;
+            let t = Self::threshold_at_grade(s, lf, grade, contrast, &pooled, (w, h))?;
             threshold
                 .par_iter_mut()
                 .zip(t.par_iter())
