@@ -1,5 +1,6 @@
-//! Triangle geometry and ray intersection through obvhs compressed wide BVHs (CWBVH, Ylitie
-//! et al. 2017, built with PLOC by Meister & Bittner 2018).
+//! Triangle geometry and ray intersection through four-wide BVHs ([`crate::bvh`]: obvhs' PLOC
+//! build by Meister & Bittner 2018, collapsed to four children per node, four triangles per
+//! SIMD test).
 //!
 //! Two levels: the static triangles of a scene sit in one BVH in world space, exactly as in a
 //! still; every mesh with keyframed motion has a BVH of its own in its rest space (built once)
@@ -9,10 +10,8 @@
 //! because the transformed direction is not renormalised.
 
 use crate::animation::TransformTrack;
-use glam::{Affine3A, Vec2, Vec3, Vec3A, Vec4};
-use obvhs::cwbvh::CwBvh;
-use obvhs::ray::{Ray as BvhRay, RayHit};
-use obvhs::triangle::Triangle as BvhTriangle;
+use crate::bvh::Bvh4;
+use glam::{Affine3A, Vec2, Vec3, Vec3A};
 use std::time::Duration;
 
 /// A ray with origin `o`, unit direction `d`, valid for t in (0, `t_max`), at scene time
@@ -81,128 +80,17 @@ pub struct Hit {
     pub tri: u32,
 }
 
-/// Intersection data laid out in BVH leaf order: the affine map that takes the triangle to the
-/// unit triangle in the xy-plane (Baldwin & Weber 2016, "Fast Ray-Triangle Intersections by
-/// Coordinate Transformation", JCGT 5(3), the precomputed-transformation variant): three rows
-/// of (x, y, z, constant). Row 2 gives the signed distance to the plane, rows 0 and 1 the
-/// barycentrics of v1 and v2. Degenerate triangles get a row 2 of zeros and are never hit.
-#[derive(Clone, Copy)]
-struct IsectTri {
-    r0: Vec4,
-    r1: Vec4,
-    r2: Vec4,
-}
-
-impl IsectTri {
-    fn new(v0: Vec3, v1: Vec3, v2: Vec3) -> IsectTri {
-        let (e1, e2) = (v1 - v0, v2 - v0);
-        let n = e1.cross(e2);
-        let (c20, c10) = (v2.cross(v0), v1.cross(v0));
-        let d = -v0.dot(n);
-        let a = n.abs();
-        let (r0, r1, r2) = if a.x > a.y && a.x > a.z {
-            let k = 1.0 / n.x;
-            (
-                Vec4::new(0.0, e2.z * k, -e2.y * k, c20.x * k),
-                Vec4::new(0.0, -e1.z * k, e1.y * k, -c10.x * k),
-                Vec4::new(1.0, n.y * k, n.z * k, d * k),
-            )
-        } else if a.y > a.z {
-            let k = 1.0 / n.y;
-            (
-                Vec4::new(-e2.z * k, 0.0, e2.x * k, c20.y * k),
-                Vec4::new(e1.z * k, 0.0, -e1.x * k, -c10.y * k),
-                Vec4::new(n.x * k, 1.0, n.z * k, d * k),
-            )
-        } else if a.z > 0.0 {
-            let k = 1.0 / n.z;
-            (
-                Vec4::new(e2.y * k, -e2.x * k, 0.0, c20.z * k),
-                Vec4::new(-e1.y * k, e1.x * k, 0.0, -c10.z * k),
-                Vec4::new(n.x * k, n.y * k, 1.0, d * k),
-            )
-        } else {
-            (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO)
-        };
-        let ok = [r0, r1, r2].iter().all(|r| r.is_finite());
-        if ok {
-            IsectTri { r0, r1, r2 }
-        } else {
-            IsectTri {
-                r0: Vec4::ZERO,
-                r1: Vec4::ZERO,
-                r2: Vec4::ZERO,
-            }
-        }
-    }
-
-    /// Returns (t, b1, b2) for t in (0, t_max).
-    #[inline(always)]
-    fn intersect(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<(f32, f32, f32)> {
-        let n = Vec3A::from(self.r2.truncate());
-        let dn = n.dot(d);
-        let t = -(n.dot(o) + self.r2.w) / dn;
-        if !(t > 0.0 && t < t_max) {
-            return None;
-        }
-        let h = o + d * t;
-        let b1 = Vec3A::from(self.r0.truncate()).dot(h) + self.r0.w;
-        let b2 = Vec3A::from(self.r1.truncate()).dot(h) + self.r1.w;
-        if b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 {
-            Some((t, b1, b2))
-        } else {
-            None
-        }
-    }
-}
-
 /// One bottom-level BVH over a set of triangles (in world space for the static set, in rest
 /// space for an instance).
 struct Blas {
-    bvh: CwBvh,
-    /// Intersection records in BVH slot order.
-    isect: Vec<IsectTri>,
-    /// BVH slot → triangle id.
-    slot_to_tri: Vec<u32>,
+    bvh: Bvh4,
 }
 
 impl Blas {
     /// Builds over the triangles `ids` of `tris` (at least one).
     fn build(tris: &[TriangleAttributes], ids: &[u32]) -> Blas {
-        let bvh_tris: Vec<BvhTriangle> = ids
-            .iter()
-            .map(|&i| {
-                let t = &tris[i as usize];
-                BvhTriangle {
-                    v0: t.p[0].into(),
-                    v1: t.p[1].into(),
-                    v2: t.p[2].into(),
-                }
-            })
-            .collect();
-        let mut core = Duration::default();
-        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
-            &bvh_tris,
-            obvhs::BvhBuildParams::medium_build(),
-            &mut core,
-        );
-        let slot_to_tri: Vec<u32> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&k| ids[k as usize])
-            .collect();
-        let isect = slot_to_tri
-            .iter()
-            .map(|&i| {
-                let t = &tris[i as usize];
-                IsectTri::new(t.p[0], t.p[1], t.p[2])
-            })
-            .collect();
-        Blas {
-            bvh,
-            isect,
-            slot_to_tri,
-        }
+        let (bvh, _) = Bvh4::build(ids, |i| tris[i as usize].p);
+        Blas { bvh }
     }
 
     /// Closest hit closer than `t_max` that `keep(triangle id, b1, b2)` accepts (alpha
@@ -215,24 +103,7 @@ impl Blas {
         t_max: f32,
         keep: impl Fn(u32, f32, f32) -> bool,
     ) -> Option<(u32, f32, f32, f32)> {
-        let bray = BvhRay::new(o, d, 0.0, t_max);
-        let mut hit = RayHit::none();
-        let mut bary = (0.0f32, 0.0f32);
-        let found = self.bvh.ray_traverse(bray, &mut hit, |r, slot| {
-            match self.isect[slot].intersect(o, d, r.tmax) {
-                Some((t, b1, b2)) if keep(self.slot_to_tri[slot], b1, b2) => {
-                    bary = (b1, b2);
-                    t
-                }
-                _ => f32::INFINITY,
-            }
-        });
-        // The closure only reports hits closer than the current closest, and traversal accepts
-        // every one it reports, so `bary` belongs to the final (closest) hit.
-        found.then(|| {
-            let tri = self.slot_to_tri[hit.primitive_id as usize];
-            (tri, hit.t, bary.0, bary.1)
-        })
+        self.bvh.closest(o, d, t_max, keep)
     }
 
     /// True when nothing that `keep` accepts is hit closer than `t_max`.
@@ -244,13 +115,7 @@ impl Blas {
         t_max: f32,
         keep: impl Fn(u32, f32, f32) -> bool,
     ) -> bool {
-        let bray = BvhRay::new(o, d, 0.0, t_max);
-        self.bvh.ray_traverse_miss(bray, |r, slot| {
-            match self.isect[slot].intersect(o, d, r.tmax) {
-                Some((t, b1, b2)) if keep(self.slot_to_tri[slot], b1, b2) => t,
-                _ => f32::INFINITY,
-            }
-        })
+        self.bvh.unoccluded(o, d, t_max, keep)
     }
 }
 
@@ -634,59 +499,5 @@ pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
         p + ng * eps
     } else {
         p - ng * eps
-    }
-}
-
-#[cfg(test)]
-mod isect_tests {
-    use super::*;
-    use crate::rng::Rng;
-
-    /// Möller–Trumbore in f64, the independent reference: (t, b1, b2) for t > 0.
-    fn reference(v: [Vec3; 3], o: Vec3, d: Vec3) -> Option<(f64, f64, f64)> {
-        let f = |v: Vec3| glam::DVec3::new(v.x as f64, v.y as f64, v.z as f64);
-        let (v0, e1, e2, o, d) = (f(v[0]), f(v[1] - v[0]), f(v[2] - v[0]), f(o), f(d));
-        let p = d.cross(e2);
-        let det = e1.dot(p);
-        if det.abs() < 1e-14 {
-            return None;
-        }
-        let s = o - v0;
-        let b1 = s.dot(p) / det;
-        let q = s.cross(e1);
-        let b2 = d.dot(q) / det;
-        let t = e2.dot(q) / det;
-        (b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 && t > 0.0).then_some((t, b1, b2))
-    }
-
-    #[test]
-    fn baldwin_weber_agrees_with_f64_moller_trumbore() {
-        let mut rng = Rng::new(11, 2);
-        let mut r3 = || Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;
-        let (mut hits, mut checked) = (0, 0);
-        for _ in 0..20_000 {
-            let v = [r3(), r3(), r3()];
-            let o = r3() * 3.0;
-            let target = (v[0] + v[1] + v[2]) / 3.0 + r3() * 0.5;
-            let d = (target - o).normalize();
-            let tri = IsectTri::new(v[0], v[1], v[2]);
-            let got = tri.intersect(o.into(), d.into(), f32::INFINITY);
-            let want = reference(v, o, d);
-            match (got, want) {
-                (Some((t, b1, b2)), Some((tw, b1w, b2w))) => {
-                    hits += 1;
-                    assert!((t as f64 - tw).abs() < 1e-3 * tw.max(1.0), "t {t} vs {tw}");
-                    assert!((b1 as f64 - b1w).abs() < 1e-3 && (b2 as f64 - b2w).abs() < 1e-3);
-                }
-                (None, None) => {}
-                // Disagreement only within rounding of an edge.
-                (Some((_, b1, b2)), None) => {
-                    assert!(b1.min(b2).min(1.0 - b1 - b2) < 1e-4, "{b1} {b2}")
-                }
-                (None, Some((_, b1, b2))) => assert!(b1.min(b2).min(1.0 - b1 - b2) < 1e-4),
-            }
-            checked += 1;
-        }
-        assert!(hits > checked / 5, "{hits} of {checked}");
     }
 }

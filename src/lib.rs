@@ -20,6 +20,7 @@
 pub mod adaptive;
 pub mod animation;
 pub mod bsdf;
+mod bvh;
 pub mod camera;
 #[cfg(test)]
 mod chi2;
