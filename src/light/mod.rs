@@ -89,6 +89,9 @@ pub enum LightSampler {
 pub struct Lights {
     /// Triangle id of each emissive triangle.
     pub tris: Vec<u32>,
+    /// World vertices, unit normal and area of each static emissive triangle (as `tris`;
+    /// `None` for one that moves), so that sampling does not recompute them.
+    shapes: Vec<Option<([Vec3; 3], Vec3, f32)>>,
     /// The environment, suns, point and spot lights.
     pub other: OtherLights,
     /// Power distribution over every light ([`LightSampler::Power`]).
@@ -157,8 +160,16 @@ impl Lights {
             }
             LightSampler::Bvh => None,
         };
+        let shapes = ids
+            .iter()
+            .map(|&i| {
+                let t = &tris[i as usize];
+                (t.instance == crate::geometry::STATIC_INSTANCE).then(|| triangle_shape(t.p))
+            })
+            .collect();
         Some(Lights {
             tris: ids,
+            shapes,
             other,
             dist,
             tree,
@@ -371,7 +382,7 @@ impl Lights {
     ) -> Option<LightSample> {
         let tri = self.tris[li];
         let t = &geo.tris[tri as usize];
-        let (v, n, area) = world_triangle(geo, tri, time);
+        let (v, n, area) = self.shape(li, geo, tri, time);
         let b = square_to_uniform_triangle(u);
         let b0 = 1.0 - b.x - b.y;
         let p = v[0] * b.x + v[1] * b.y + v[2] * b0;
@@ -439,7 +450,7 @@ impl Lights {
         if light == u32::MAX {
             return 0.0;
         }
-        let (_, n, area) = world_triangle(geo, tri, time);
+        let (_, n, area) = self.shape(light as usize, geo, tri, time);
         let d = p_light - p_ref;
         let dist2 = d.length_squared();
         let cos_l = (-d.dot(n) / dist2.sqrt()).max(0.0);
@@ -450,15 +461,25 @@ impl Lights {
     }
 }
 
-/// Triangle `tri` at scene time `time`: its world vertices, unit normal (from the winding) and
-/// area.
+/// A triangle's vertices, unit normal (from the winding) and area.
 #[inline]
-fn world_triangle(geo: &Geometry, tri: u32, time: f32) -> ([Vec3; 3], Vec3, f32) {
-    let v = geo.world_vertices(tri, time);
+fn triangle_shape(v: [Vec3; 3]) -> ([Vec3; 3], Vec3, f32) {
     let cross = (v[1] - v[0]).cross(v[2] - v[0]);
     (
         v,
         crate::math::robust_normalize(cross),
         0.5 * crate::math::robust_length(cross),
     )
+}
+
+impl Lights {
+    /// Emitter `li` (triangle `tri`) at scene time `time`: its world vertices, unit normal and
+    /// area (stored for a static triangle, computed for a moving one).
+    #[inline]
+    fn shape(&self, li: usize, geo: &Geometry, tri: u32, time: f32) -> ([Vec3; 3], Vec3, f32) {
+        match self.shapes[li] {
+            Some(s) => s,
+            None => triangle_shape(geo.world_vertices(tri, time)),
+        }
+    }
 }
