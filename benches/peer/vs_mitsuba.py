@@ -8,9 +8,13 @@ creates ``benches/peer/.venv`` with mitsuba, numpy and flip-evaluator, and insta
     benches/peer/.venv/bin/python benches/peer/vs_mitsuba.py [--variant llvm_ad_rgb]
         [--res 256] [--spp 16 64] [--rounds 5] [--max-depth 8] [--ref-spp 8192]
 
-On the bundled Cornell box (McGuire's OBJ, the same camera, lights, depth and box filter in
-both renderers), it renders a common reference with Mitsuba (``--ref-spp``, cached in
-``target/peer/``), then, for each budget, alternates aleph (``render --sampler uniform``, the
+Two scenes (``--scenes``): the bundled Cornell box (McGuire's OBJ, the same camera, lights,
+depth and box filter in both renderers), scored against one common Mitsuba reference
+(``--ref-spp``, cached in ``target/peer/``); and the bundled Lost Empire (225k triangles, its
+texture atlas on one Lambertian material under a constant sky and a sun, as
+``textured_scene.py`` writes it for both), 320×200, where each renderer is scored against its
+own ``--textured-ref-spp`` reference (their means agree to 5 digits, but texture filtering
+need not agree texel by texel). For each scene and budget it alternates aleph (``render --sampler uniform``, the
 render time from its own summary) and Mitsuba (``mi.render`` timed after a warm-up, so the
 LLVM kernel compile is not counted) for ``--rounds`` rounds. Each image is scored against the
 reference by relMSE (mean of (x − r)² / (r² + 0.01), per channel) and FLIP (mean, 67 ppd,
@@ -56,10 +60,10 @@ def read_exr_rgb(path):
     return arr[:, :, [names.index(c) for c in ("R", "G", "B")]]
 
 
-def aleph_render(spp, res, depth, seed, tmp):
+def aleph_render(scene, spp, res, depth, seed, tmp):
     out = os.path.join(tmp, f"a{seed}")
     p = subprocess.run(
-        [ALEPH, "render", SCENE, "--sampler", "uniform", "--spp", str(spp), "--resolution", f"{res}x{res}",
+        [ALEPH, "render", scene, "--sampler", "uniform", "--spp", str(spp), "--resolution", f"{res[0]}x{res[1]}",
          "--max-depth", str(depth), "--seed", str(seed), "-o", out],
         capture_output=True, text=True, check=True)
     line = p.stdout + p.stderr
@@ -68,59 +72,87 @@ def aleph_render(spp, res, depth, seed, tmp):
     return read_exr_rgb(out + ".exr"), secs
 
 
+def mitsuba_reference(scene, spp, path):
+    """Mean of `spp` samples in chunks of at most 1024 (cached at `path`)."""
+    if not os.path.exists(path):
+        acc = None
+        chunks = max(1, spp // 1024)
+        for k in range(chunks):
+            img = np.array(mi.render(scene, spp=spp // chunks, seed=10_000 + k))[:, :, :3]
+            acc = img if acc is None else acc + img
+            print(f"reference {k + 1}/{chunks}", file=sys.stderr)
+        mi.Bitmap(np.ascontiguousarray(acc / chunks, dtype=np.float32)).write(path)
+    return read_exr_rgb(path)
+
+
+def setup(name, args, tmp):
+    """(Mitsuba scene, aleph scene file, resolution, reference for aleph, reference for
+    Mitsuba) of benchmark scene `name`."""
+    import mitsuba_cornell as mc
+    import textured_scene as ts
+    # Mitsuba's path tracer counts depth as vertices from the camera (max_depth = bounces + 1).
+    if name == "cornell":
+        res = (args.res, args.res)
+        scene = mi.load_dict(mc.aleph_box(args.res, args.max_depth + 1, tmp))
+        ref = mitsuba_reference(scene, args.ref_spp, os.path.join(OUT, f"ref-{args.res}-{args.max_depth}-{args.ref_spp}.exr"))
+        return scene, SCENE, res, ref, ref
+    res = (args.res * 5 // 4, args.res * 25 // 32)
+    scene = mi.load_dict(ts.mitsuba_dict(mi, res, args.max_depth + 1))
+    toml = ts.aleph_toml(res)
+    tag = f"{res[0]}x{res[1]}-{args.max_depth}-{args.textured_ref_spp}"
+    ref_m = mitsuba_reference(scene, args.textured_ref_spp, os.path.join(OUT, f"ref-lost-empire-mitsuba-{tag}.exr"))
+    ref_a_path = os.path.join(OUT, f"ref-lost-empire-aleph-{tag}.exr")
+    if not os.path.exists(ref_a_path):
+        img, _ = aleph_render(toml, args.textured_ref_spp, res, args.max_depth, 10_000, tmp)
+        mi.Bitmap(np.ascontiguousarray(img, dtype=np.float32)).write(ref_a_path)
+    return scene, toml, res, read_exr_rgb(ref_a_path), ref_m
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--scenes", nargs="+", default=["cornell", "lost-empire"], choices=["cornell", "lost-empire"])
     ap.add_argument("--res", type=int, default=256)
     ap.add_argument("--spp", type=int, nargs="+", default=[16, 64])
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--max-depth", type=int, default=8)
     ap.add_argument("--ref-spp", type=int, default=8192)
+    ap.add_argument("--textured-ref-spp", type=int, default=2048)
     args = ap.parse_args()
     mi.set_variant(args.variant)
-    import mitsuba_cornell as mc
     os.makedirs(OUT, exist_ok=True)
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        # Mitsuba's path tracer counts depth as vertices from the camera (max_depth = bounces + 1).
-        d = mc.aleph_box(args.res, args.max_depth + 1, tmp)
-        scene = mi.load_dict(d)
-        ref_path = os.path.join(OUT, f"ref-{args.res}-{args.max_depth}-{args.ref_spp}.exr")
-        if not os.path.exists(ref_path):
-            acc = None
-            chunks = max(1, args.ref_spp // 1024)
-            for k in range(chunks):
-                img = np.array(mi.render(scene, spp=args.ref_spp // chunks, seed=10_000 + k))[:, :, :3]
-                acc = img if acc is None else acc + img
-                print(f"reference {k + 1}/{chunks}", file=sys.stderr)
-            mi.Bitmap((acc / chunks).astype(np.float32)).write(ref_path)
-        ref = read_exr_rgb(ref_path)
-        mi.render(scene, spp=4)  # compile the kernel
-        rows = []
+        for name in args.scenes:
+            scene, toml, res, ref_a, ref_m = setup(name, args, tmp)
+            np.array(mi.render(scene, spp=4))  # compile the kernel
+            for spp in args.spp:
+                for r in range(args.rounds):
+                    img_a, t_a = aleph_render(toml, spp, res, args.max_depth, 100 + r, tmp)
+                    t0 = time.perf_counter()
+                    img_m = np.array(mi.render(scene, spp=spp, seed=100 + r))[:, :, :3]
+                    t_m = time.perf_counter() - t0
+                    row = dict(scene=name, spp=spp, round=r, aleph_s=t_a, mitsuba_s=t_m,
+                               aleph_relmse=rel_mse(img_a, ref_a), mitsuba_relmse=rel_mse(img_m, ref_m),
+                               aleph_flip=flip_mean(img_a, ref_a), mitsuba_flip=flip_mean(img_m, ref_m))
+                    row["eff_relmse"] = (row["mitsuba_relmse"] * t_m) / (row["aleph_relmse"] * t_a)
+                    row["eff_flip"] = (row["mitsuba_flip"] ** 2 * t_m) / (row["aleph_flip"] ** 2 * t_a)
+                    rows.append(row)
+                    print(f"{name} {spp:5d} spp round {r}: aleph {t_a:.3f} s relMSE {row['aleph_relmse']:.5f} FLIP {row['aleph_flip']:.4f} | "
+                          f"mitsuba {t_m:.3f} s relMSE {row['mitsuba_relmse']:.5f} FLIP {row['mitsuba_flip']:.4f} | "
+                          f"time to equal relMSE aleph/mitsuba advantage {row['eff_relmse']:.2f}x", flush=True)
+    with open(os.path.join(OUT, "vs_mitsuba.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    print(f"\nmitsuba {mi.__version__} {args.variant}, depth {args.max_depth}; Cornell box {args.res}² against a "
+          f"{args.ref_spp}-spp Mitsuba reference, Lost Empire each against its own {args.textured_ref_spp}-spp reference")
+    print("scene | spp | aleph s | mitsuba s | samples/s ratio | relMSE aleph | relMSE mitsuba | eq-relMSE advantage | eq-FLIP advantage (medians)")
+    for name in args.scenes:
         for spp in args.spp:
-            for r in range(args.rounds):
-                img_a, t_a = aleph_render(spp, args.res, args.max_depth, 100 + r, tmp)
-                t0 = time.perf_counter()
-                img_m = np.array(mi.render(scene, spp=spp, seed=100 + r))[:, :, :3]
-                t_m = time.perf_counter() - t0
-                row = dict(spp=spp, round=r, aleph_s=t_a, mitsuba_s=t_m,
-                           aleph_relmse=rel_mse(img_a, ref), mitsuba_relmse=rel_mse(img_m, ref),
-                           aleph_flip=flip_mean(img_a, ref), mitsuba_flip=flip_mean(img_m, ref))
-                row["eff_relmse"] = (row["mitsuba_relmse"] * t_m) / (row["aleph_relmse"] * t_a)
-                row["eff_flip"] = (row["mitsuba_flip"] ** 2 * t_m) / (row["aleph_flip"] ** 2 * t_a)
-                rows.append(row)
-                print(f"{spp:5d} spp round {r}: aleph {t_a:.3f} s relMSE {row['aleph_relmse']:.5f} FLIP {row['aleph_flip']:.4f} | "
-                      f"mitsuba {t_m:.3f} s relMSE {row['mitsuba_relmse']:.5f} FLIP {row['mitsuba_flip']:.4f} | "
-                      f"time to equal relMSE aleph/mitsuba advantage {row['eff_relmse']:.2f}x", flush=True)
-        with open(os.path.join(OUT, "vs_mitsuba.csv"), "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-            w.writeheader()
-            w.writerows(rows)
-        print(f"\nmitsuba {mi.__version__} {args.variant}, Cornell box {args.res}², depth {args.max_depth}, reference {args.ref_spp} spp")
-        print("spp | aleph s | mitsuba s | samples/s ratio | relMSE aleph | relMSE mitsuba | eq-relMSE advantage | eq-FLIP advantage (medians)")
-        for spp in args.spp:
-            sel = [r for r in rows if r["spp"] == spp]
+            sel = [r for r in rows if r["spp"] == spp and r["scene"] == name]
             med = lambda k: float(np.median([r[k] for r in sel]))
-            print(f"{spp} | {med('aleph_s'):.3f} | {med('mitsuba_s'):.3f} | {med('mitsuba_s') / med('aleph_s'):.2f} | "
+            print(f"{name} | {spp} | {med('aleph_s'):.3f} | {med('mitsuba_s'):.3f} | {med('mitsuba_s') / med('aleph_s'):.2f} | "
                   f"{med('aleph_relmse'):.5f} | {med('mitsuba_relmse'):.5f} | {med('eff_relmse'):.2f}x | {med('eff_flip'):.2f}x")
 
 
