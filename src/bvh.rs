@@ -255,10 +255,8 @@ pub(crate) struct Bvh4 {
 }
 
 impl Bvh4 {
-    /// Builds over the triangles `ids` (at least one), whose vertices are `verts(id)`. Returns
-    /// the BVH and the time the build took.
-    pub(crate) fn build(ids: &[u32], verts: impl Fn(u32) -> [Vec3; 3]) -> (Bvh4, Duration) {
-        let start = std::time::Instant::now();
+    /// Builds over the triangles `ids` (at least one), whose vertices are `verts(id)`.
+    pub(crate) fn build(ids: &[u32], verts: impl Fn(u32) -> [Vec3; 3]) -> Bvh4 {
         let bvh_tris: Vec<BvhTriangle> = ids
             .iter()
             .map(|&i| {
@@ -281,7 +279,7 @@ impl Bvh4 {
             nodes: Vec::with_capacity(bvh2.nodes.len() / 2 + 1),
             packs: Vec::with_capacity(ids.len() / 2 + 1),
         };
-        let leaf = |out: &mut Bvh4, n: &obvhs::bvh2::node::Bvh2Node| {
+        let pack = |out: &mut Bvh4, n: &obvhs::bvh2::node::Bvh2Node| {
             let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
             let tris: Vec<(u32, IsectTri)> = bvh2.primitive_indices[range]
                 .iter()
@@ -291,11 +289,11 @@ impl Bvh4 {
                     (id, IsectTri::new(v0, v1, v2))
                 })
                 .collect();
-            out.leaf(&tris)
+            out.push_leaf(&tris)
         };
         let root = &bvh2.nodes[0];
         if root.is_leaf() {
-            let slot = leaf(&mut out, root);
+            let slot = pack(&mut out, root);
             let lane0 = |inside: f32, outside: f32| Vec4::new(inside, outside, outside, outside);
             out.nodes.push(Node4 {
                 lo: [lane0(f32::NEG_INFINITY, f32::INFINITY); 3],
@@ -303,13 +301,13 @@ impl Bvh4 {
                 child: [slot, EMPTY, EMPTY, EMPTY],
             });
         } else {
-            out.inner(&bvh2.nodes, 0, &leaf);
+            out.inner(&bvh2.nodes, 0, &pack);
         }
-        (out, start.elapsed())
+        out
     }
 
     /// Packs a leaf's triangles and returns its slot.
-    fn leaf(&mut self, tris: &[(u32, IsectTri)]) -> u32 {
+    fn push_leaf(&mut self, tris: &[(u32, IsectTri)]) -> u32 {
         let first = self.packs.len() as u32;
         let chunks: Vec<&[(u32, IsectTri)]> = tris.chunks(4).collect();
         assert!(
@@ -330,7 +328,7 @@ impl Bvh4 {
         &mut self,
         b2: &[obvhs::bvh2::node::Bvh2Node],
         i: usize,
-        leaf: &impl Fn(&mut Bvh4, &obvhs::bvh2::node::Bvh2Node) -> u32,
+        pack: &impl Fn(&mut Bvh4, &obvhs::bvh2::node::Bvh2Node) -> u32,
     ) -> u32 {
         let kids = |k: usize| [b2[k].first_index as usize, b2[k].first_index as usize + 1];
         let mut children: Vec<usize> = kids(i).to_vec();
@@ -358,9 +356,9 @@ impl Bvh4 {
         for (lane, &c) in children.iter().enumerate() {
             let n = &b2[c];
             let slot = if n.is_leaf() {
-                leaf(self, n)
+                pack(self, n)
             } else {
-                self.inner(b2, c, leaf)
+                self.inner(b2, c, pack)
             };
             let node = &mut self.nodes[me];
             node.child[lane] = slot;
@@ -370,6 +368,14 @@ impl Bvh4 {
             }
         }
         me as u32
+    }
+
+    /// The triangle packs of leaf slot `slot`.
+    #[inline(always)]
+    fn leaf(&self, slot: u32) -> &[Tri4] {
+        let first = (slot & 0x0fff_ffff) as usize;
+        let count = ((slot >> 28) & 7) as usize + 1;
+        &self.packs[first..first + count]
     }
 
     /// Closest hit at t in (0, `t_max`) that `keep(triangle id, b1, b2)` accepts: (triangle id,
@@ -402,13 +408,9 @@ impl Bvh4 {
                     }
                 }
             } else {
-                let first = (slot & 0x0fff_ffff) as usize;
-                let count = ((slot >> 28) & 7) as usize + 1;
-                for pack in &self.packs[first..first + count] {
-                    let (mut mask, t, b1, b2) = pack.intersect(&r, t_max);
-                    while mask != 0 {
-                        let lane = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
+                for pack in self.leaf(slot) {
+                    let (mask, t, b1, b2) = pack.intersect(&r, t_max);
+                    for lane in lanes(mask) {
                         let id = pack.ids[lane];
                         if t[lane] < t_max && keep(id, b1[lane], b2[lane]) {
                             t_max = t[lane];
@@ -444,20 +446,14 @@ impl Bvh4 {
         loop {
             if slot & LEAF == 0 {
                 let node = &self.nodes[slot as usize];
-                let (mut mask, _) = r.boxes(node, t_max);
-                while mask != 0 {
-                    let lane = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
+                let (mask, _) = r.boxes(node, t_max);
+                for lane in lanes(mask) {
                     stack.push((node.child[lane], 0.0));
                 }
             } else {
-                let first = (slot & 0x0fff_ffff) as usize;
-                let count = ((slot >> 28) & 7) as usize + 1;
-                for pack in &self.packs[first..first + count] {
-                    let (mut mask, _, b1, b2) = pack.intersect(&r, t_max);
-                    while mask != 0 {
-                        let lane = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
+                for pack in self.leaf(slot) {
+                    let (mask, _, b1, b2) = pack.intersect(&r, t_max);
+                    for lane in lanes(mask) {
                         if keep(pack.ids[lane], b1[lane], b2[lane]) {
                             return false;
                         }
@@ -472,15 +468,25 @@ impl Bvh4 {
     }
 }
 
+/// The set bits of a lane mask, lowest first.
+#[inline(always)]
+fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            lane
+        })
+    })
+}
+
 /// Pushes the hit children of `node` (two or more bits of `mask`) farthest first and returns
 /// the nearest, which is visited next.
 #[inline(always)]
-fn push_ordered(stack: &mut Stack, node: &Node4, mut mask: u32, t_near: Vec4) -> u32 {
+fn push_ordered(stack: &mut Stack, node: &Node4, mask: u32, t_near: Vec4) -> u32 {
     let mut hits = [(0u32, 0.0f32); 4];
     let mut n = 0;
-    while mask != 0 {
-        let lane = mask.trailing_zeros() as usize;
-        mask &= mask - 1;
+    for lane in lanes(mask) {
         // Insertion sort by distance, nearest last.
         let e = (node.child[lane], t_near[lane]);
         let mut k = n;
@@ -564,7 +570,7 @@ mod tests {
                 })
                 .collect();
             let ids: Vec<u32> = (0..n as u32).collect();
-            let (bvh, _) = Bvh4::build(&ids, |i| tris[i as usize]);
+            let bvh = Bvh4::build(&ids, |i| tris[i as usize]);
             let isect: Vec<IsectTri> = tris
                 .iter()
                 .map(|v| IsectTri::new(v[0], v[1], v[2]))
@@ -625,7 +631,7 @@ mod tests {
                 Vec3::new(0.0, 0.0, 1.0),
             ],
         ];
-        let (bvh, _) = Bvh4::build(&[0, 1], |i| q[i as usize]);
+        let bvh = Bvh4::build(&[0, 1], |i| q[i as usize]);
         for k in 1..20 {
             let x = k as f32 / 20.0;
             let down = bvh.closest(

@@ -80,51 +80,12 @@ pub struct Hit {
     pub tri: u32,
 }
 
-/// One bottom-level BVH over a set of triangles (in world space for the static set, in rest
-/// space for an instance).
-struct Blas {
-    bvh: Bvh4,
-}
-
-impl Blas {
-    /// Builds over the triangles `ids` of `tris` (at least one).
-    fn build(tris: &[TriangleAttributes], ids: &[u32]) -> Blas {
-        let (bvh, _) = Bvh4::build(ids, |i| tris[i as usize].p);
-        Blas { bvh }
-    }
-
-    /// Closest hit closer than `t_max` that `keep(triangle id, b1, b2)` accepts (alpha
-    /// cut-outs reject theirs): (triangle id, t, b1, b2).
-    #[inline]
-    fn closest(
-        &self,
-        o: Vec3A,
-        d: Vec3A,
-        t_max: f32,
-        keep: impl Fn(u32, f32, f32) -> bool,
-    ) -> Option<(u32, f32, f32, f32)> {
-        self.bvh.closest(o, d, t_max, keep)
-    }
-
-    /// True when nothing that `keep` accepts is hit closer than `t_max`.
-    #[inline]
-    fn unoccluded(
-        &self,
-        o: Vec3A,
-        d: Vec3A,
-        t_max: f32,
-        keep: impl Fn(u32, f32, f32) -> bool,
-    ) -> bool {
-        self.bvh.unoccluded(o, d, t_max, keep)
-    }
-}
-
 /// A mesh in rigid (keyframed) motion: its BVH in rest space, its transform over time, and a
 /// world-space box that covers it over the animation's time range.
 pub struct Instance {
     /// Rest space → world space over time.
     pub track: TransformTrack,
-    blas: Blas,
+    blas: Bvh4,
     bounds_min: Vec3A,
     bounds_max: Vec3A,
 }
@@ -192,7 +153,7 @@ fn motion_bounds(track: &TransformTrack, lo: Vec3, hi: Vec3, t0: f32, t1: f32) -
 /// All triangles of a scene with their BVHs.
 pub struct Geometry {
     /// The static triangles' BVH (world space), if there are any.
-    stat: Option<Blas>,
+    stat: Option<Bvh4>,
     /// Moving meshes.
     instances: Vec<Instance>,
     /// Attributes by triangle id.
@@ -289,7 +250,8 @@ impl Geometry {
                 ids[t.instance as usize].push(i as u32);
             }
         }
-        let stat = (!static_ids.is_empty()).then(|| Blas::build(&tris, &static_ids));
+        let stat =
+            (!static_ids.is_empty()).then(|| Bvh4::build(&static_ids, |i| tris[i as usize].p));
         let instances = tracks
             .into_iter()
             .zip(ids)
@@ -305,7 +267,7 @@ impl Geometry {
                 let (bounds_min, bounds_max) =
                     motion_bounds(&track, lo, hi, time_range.0, time_range.1);
                 Instance {
-                    blas: Blas::build(&tris, &ids),
+                    blas: Bvh4::build(&ids, |i| tris[i as usize].p),
                     track,
                     bounds_min,
                     bounds_max,
