@@ -21,6 +21,7 @@
 
 use glam::{Vec3, Vec3A, Vec4};
 use obvhs::triangle::Triangle as BvhTriangle;
+use std::mem::MaybeUninit;
 use std::time::Duration;
 
 /// Largest number of four-triangle packs in a leaf.
@@ -146,13 +147,23 @@ impl Tri4 {
     }
 }
 
-/// Up to four children: their boxes as lanes and their slots (an inner node's index, a leaf,
-/// or `EMPTY`, whose box is inverted and never hit).
+/// Up to four children: their boxes as lanes (`b[2a]` the lower and `b[2a + 1]` the upper
+/// bound on axis a, so a ray picks its near plane by index rather than by branch) and their
+/// slots (an inner node's index, a leaf, or `EMPTY`, whose box is inverted and never hit).
 #[derive(Clone, Copy)]
 struct Node4 {
-    lo: [Vec4; 3],
-    hi: [Vec4; 3],
+    b: [Vec4; 6],
     child: [u32; 4],
+}
+
+impl Node4 {
+    /// A node whose lane i has box [lo[i], hi[i]] per axis (`lo` and `hi` as [axis] of lanes).
+    fn new(lo: [Vec4; 3], hi: [Vec4; 3], child: [u32; 4]) -> Node4 {
+        Node4 {
+            b: [lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]],
+            child,
+        }
+    }
 }
 
 /// A ray prepared for the SIMD tests: origin, direction and reciprocal direction splatted per
@@ -161,7 +172,8 @@ struct Prepared {
     o: [Vec4; 3],
     d: [Vec4; 3],
     inv: [Vec4; 3],
-    neg: [bool; 3],
+    /// Index into `Node4::b` of the near plane on each axis (the far one is `^ 1`).
+    near: [usize; 3],
 }
 
 impl Prepared {
@@ -180,7 +192,7 @@ impl Prepared {
             o: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
             d: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
             inv: inv.map(Vec4::splat),
-            neg: inv.map(|i| i < 0.0),
+            near: [0, 2, 4].map(|k| k + (inv[k / 2] < 0.0) as usize),
         }
     }
 
@@ -188,11 +200,7 @@ impl Prepared {
     #[inline(always)]
     fn boxes(&self, n: &Node4, t_max: f32) -> (u32, Vec4) {
         let axis = |a: usize| {
-            let (near, far) = if self.neg[a] {
-                (n.hi[a], n.lo[a])
-            } else {
-                (n.lo[a], n.hi[a])
-            };
+            let (near, far) = (n.b[self.near[a]], n.b[self.near[a] ^ 1]);
             (
                 (near - self.o[a]) * self.inv[a],
                 (far - self.o[a]) * self.inv[a],
@@ -208,9 +216,10 @@ impl Prepared {
 }
 
 /// The traversal stack: (slot, entry distance) pairs, on the machine stack up to
-/// [`INLINE_STACK`] entries and on the heap for deeper trees.
+/// [`INLINE_STACK`] entries and on the heap for deeper trees. The inline entries start
+/// uninitialised: zeroing them cost a 512-byte fill per ray, several per cent of a render.
 struct Stack {
-    inline: [(u32, f32); INLINE_STACK],
+    inline: [MaybeUninit<(u32, f32)>; INLINE_STACK],
     len: usize,
     spill: Vec<(u32, f32)>,
 }
@@ -219,7 +228,7 @@ impl Stack {
     #[inline(always)]
     fn new() -> Stack {
         Stack {
-            inline: [(0, 0.0); INLINE_STACK],
+            inline: [const { MaybeUninit::uninit() }; INLINE_STACK],
             len: 0,
             spill: Vec::new(),
         }
@@ -228,7 +237,7 @@ impl Stack {
     #[inline(always)]
     fn push(&mut self, e: (u32, f32)) {
         if self.len < INLINE_STACK {
-            self.inline[self.len] = e;
+            self.inline[self.len].write(e);
             self.len += 1;
         } else {
             self.spill.push(e);
@@ -244,7 +253,9 @@ impl Stack {
             return None;
         }
         self.len -= 1;
-        Some(self.inline[self.len])
+        // SAFETY: entries below `len` were written by `push` and are never moved out (the
+        // pair is `Copy`); `len` only grows past an entry after writing it.
+        Some(unsafe { self.inline[self.len].assume_init() })
     }
 }
 
@@ -295,11 +306,11 @@ impl Bvh4 {
         if root.is_leaf() {
             let slot = pack(&mut out, root);
             let lane0 = |inside: f32, outside: f32| Vec4::new(inside, outside, outside, outside);
-            out.nodes.push(Node4 {
-                lo: [lane0(f32::NEG_INFINITY, f32::INFINITY); 3],
-                hi: [lane0(f32::INFINITY, f32::NEG_INFINITY); 3],
-                child: [slot, EMPTY, EMPTY, EMPTY],
-            });
+            out.nodes.push(Node4::new(
+                [lane0(f32::NEG_INFINITY, f32::INFINITY); 3],
+                [lane0(f32::INFINITY, f32::NEG_INFINITY); 3],
+                [slot, EMPTY, EMPTY, EMPTY],
+            ));
         } else {
             out.inner(&bvh2.nodes, 0, &pack);
         }
@@ -348,11 +359,11 @@ impl Bvh4 {
             children.extend(kids(c));
         }
         let me = self.nodes.len();
-        self.nodes.push(Node4 {
-            lo: [Vec4::splat(f32::INFINITY); 3],
-            hi: [Vec4::splat(f32::NEG_INFINITY); 3],
-            child: [EMPTY; 4],
-        });
+        self.nodes.push(Node4::new(
+            [Vec4::splat(f32::INFINITY); 3],
+            [Vec4::splat(f32::NEG_INFINITY); 3],
+            [EMPTY; 4],
+        ));
         for (lane, &c) in children.iter().enumerate() {
             let n = &b2[c];
             let slot = if n.is_leaf() {
@@ -363,8 +374,8 @@ impl Bvh4 {
             let node = &mut self.nodes[me];
             node.child[lane] = slot;
             for a in 0..3 {
-                node.lo[a][lane] = n.aabb.min[a];
-                node.hi[a][lane] = n.aabb.max[a];
+                node.b[2 * a][lane] = n.aabb.min[a];
+                node.b[2 * a + 1][lane] = n.aabb.max[a];
             }
         }
         me as u32
