@@ -80,11 +80,18 @@ pub fn sobol_dim0(i: u32) -> u32 {
 }
 
 /// Sobol' dimension 1 (primitive polynomial x + 1, direction numbers v₁ = 2³¹,
-/// v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1): the Pascal matrix mod 2). The map is linear over GF(2), so it
-/// is the XOR of four byte-indexed tables: branch-free, four lookups.
+/// v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1): the Pascal matrix mod 2).
 #[inline]
 pub fn sobol_dim1(i: u32) -> u32 {
-    let t = &SOBOL1_BYTES;
+    sobol_dim1_reversed(i).reverse_bits()
+}
+
+/// [`sobol_dim1`] with its bits reversed, the form the Owen scramble works on. The map is
+/// linear over GF(2), so it is the XOR of four byte-indexed tables: branch-free, four lookups,
+/// and no bit reversal.
+#[inline]
+fn sobol_dim1_reversed(i: u32) -> u32 {
+    let t = &SOBOL1_REVERSED_BYTES;
     t[0][(i & 0xff) as usize]
         ^ t[1][(i >> 8 & 0xff) as usize]
         ^ t[2][(i >> 16 & 0xff) as usize]
@@ -104,14 +111,15 @@ const fn sobol_dim1_bits(mut i: u32) -> u32 {
     r
 }
 
-/// `SOBOL1_BYTES[k][b]` = [`sobol_dim1`] of byte b placed at byte k of the index.
-static SOBOL1_BYTES: [[u32; 256]; 4] = {
+/// `SOBOL1_REVERSED_BYTES[k][b]` = [`sobol_dim1`] of byte b placed at byte k of the index,
+/// bits reversed.
+static SOBOL1_REVERSED_BYTES: [[u32; 256]; 4] = {
     let mut t = [[0u32; 256]; 4];
     let mut k = 0;
     while k < 4 {
         let mut b = 0;
         while b < 256 {
-            t[k][b] = sobol_dim1_bits((b as u32) << (8 * k));
+            t[k][b] = sobol_dim1_bits((b as u32) << (8 * k)).reverse_bits();
             b += 1;
         }
         k += 1;
@@ -133,8 +141,10 @@ pub fn shuffled_scrambled_sobol2d(index: u32, seed: u64) -> Vec2 {
     let a = mix64(seed);
     let b = mix64(a) as u32;
     let i = nested_uniform_scramble(index, a as u32);
-    let x = nested_uniform_scramble(sobol_dim0(i), (a >> 32) as u32);
-    let y = nested_uniform_scramble(sobol_dim1(i), b);
+    // nested_uniform_scramble(v, s) = LK(reverse(v), s) reversed; dimension 0 is reverse(i) and
+    // dimension 1 comes reversed from its tables, so neither is reversed twice.
+    let x = laine_karras_permutation(i, (a >> 32) as u32).reverse_bits();
+    let y = laine_karras_permutation(sobol_dim1_reversed(i), b).reverse_bits();
     Vec2::new(to_unit(x), to_unit(y))
 }
 
@@ -144,7 +154,7 @@ pub fn shuffled_scrambled_sobol2d(index: u32, seed: u64) -> Vec2 {
 pub fn shuffled_scrambled_sobol1d(index: u32, seed: u64) -> f32 {
     let a = mix64(seed);
     let i = nested_uniform_scramble(index, a as u32);
-    to_unit(nested_uniform_scramble(sobol_dim0(i), (a >> 32) as u32))
+    to_unit(laine_karras_permutation(i, (a >> 32) as u32).reverse_bits())
 }
 
 /// The canonical random numbers of sample `sample_index` of pixel `pixel_index` under the render
