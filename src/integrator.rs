@@ -19,7 +19,7 @@ use crate::math::Frame;
 use crate::sampling::power_heuristic;
 use crate::scene::Scene;
 use crate::sobol::SampleSource;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// Bounce at which Russian roulette starts.
 pub const RR_START_DEPTH: u32 = 3;
@@ -272,10 +272,15 @@ impl Integrator {
             let wo = frame.to_local(wo_world);
 
             // Next-event estimation.
-            let uc_light = rng.uniform();
-            let u_light = rng.uniform2();
-            if !bsdf.is_delta()
-                && self.strategy != Strategy::BsdfOnly
+            let nee = !bsdf.is_delta() && self.strategy != Strategy::BsdfOnly;
+            let (uc_light, u_light) = if nee {
+                (rng.uniform(), rng.uniform2())
+            } else {
+                rng.skip();
+                rng.skip2();
+                (0.5, Vec2::splat(0.5))
+            };
+            if nee
                 && let Some(ls) = scene.lights.sample(
                     hit.p,
                     ns,
@@ -305,9 +310,20 @@ impl Integrator {
                 }
             }
 
-            // BSDF sampling.
-            let uc = rng.uniform();
-            let u = rng.uniform2();
+            // BSDF sampling (numbers the BSDF ignores are passed over, not computed).
+            let (uses_uc, uses_u) = bsdf.sample_uses();
+            let uc = if uses_uc {
+                rng.uniform()
+            } else {
+                rng.skip();
+                0.5
+            };
+            let u = if uses_u {
+                rng.uniform2()
+            } else {
+                rng.skip2();
+                Vec2::splat(0.5)
+            };
             let Some(s) = bsdf.sample(wo, uc, u) else {
                 break;
             };

@@ -38,6 +38,17 @@ pub trait SampleSource {
     fn uniform(&mut self) -> f32;
     /// The next two dimensions, as one 2-D point.
     fn uniform2(&mut self) -> Vec2;
+    /// Passes over the next dimension, exactly as [`SampleSource::uniform`] would advance the
+    /// source, for a decision that does not need it (the following values are unchanged).
+    #[inline]
+    fn skip(&mut self) {
+        self.uniform();
+    }
+    /// Passes over the next two dimensions, as [`SampleSource::uniform2`] would.
+    #[inline]
+    fn skip2(&mut self) {
+        self.uniform2();
+    }
 }
 
 impl SampleSource for Rng {
@@ -229,6 +240,25 @@ impl SampleSource for SobolSampler {
             return self.fallback().uniform2();
         }
         self.point()
+    }
+
+    /// A Sobol' dimension is a pure function of its number: skipping one costs nothing.
+    #[inline]
+    fn skip(&mut self) {
+        if self.dim >= QMC_DIMENSIONS {
+            self.fallback().uniform();
+        } else {
+            self.dim += 1;
+        }
+    }
+
+    #[inline]
+    fn skip2(&mut self) {
+        if self.dim >= QMC_DIMENSIONS {
+            self.fallback().uniform2();
+        } else {
+            self.dim += 2;
+        }
     }
 }
 

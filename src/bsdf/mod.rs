@@ -93,6 +93,17 @@ impl Bsdf {
         }
     }
 
+    /// Which of [`Bsdf::sample`]'s random numbers it uses: (the lobe choice `uc`, the 2-D `u`).
+    #[inline]
+    pub fn sample_uses(&self) -> (bool, bool) {
+        match self {
+            Bsdf::Lambert(_) => (false, true),
+            Bsdf::Mirror(_) => (false, false),
+            Bsdf::Glossy(_) => (true, true),
+            Bsdf::Dielectric(_) => (true, false),
+        }
+    }
+
     /// True when every lobe is a delta (no point in light sampling).
     #[inline]
     pub fn is_delta(&self) -> bool {
