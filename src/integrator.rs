@@ -184,6 +184,19 @@ fn shadow_ray_clear(
     dist > 0.0 && geo.unoccluded(o, d / dist, dist, time)
 }
 
+/// A path vertex as light sampling sees it: the hit, the scene time, the BSDF in its shading
+/// frame, the outgoing direction in that frame, the shading normal and the geometric normal on
+/// the side light may arrive from.
+struct Vertex<'a> {
+    hit: &'a Hit,
+    time: f32,
+    bsdf: &'a crate::bsdf::Bsdf,
+    frame: &'a Frame,
+    wo: Vec3,
+    ns: Vec3,
+    ng_side: Vec3,
+}
+
 impl Integrator {
     /// Radiance from the lights at infinity along `d`, for a ray that left the scene after a
     /// vertex whose BSDF sample had density `prev_pdf` (or was a delta bounce, or the camera).
@@ -203,6 +216,50 @@ impl Integrator {
                 }
             }
         })
+    }
+
+    /// One light sample at vertex `at` with random numbers (`uc`, `u`), MIS-weighted against
+    /// BSDF sampling and scaled by the path throughput `beta`: (its contribution to the path's
+    /// radiance, shadow rays traced).
+    #[inline(always)]
+    fn direct_light(
+        &self,
+        scene: &Scene,
+        at: &Vertex,
+        beta: Vec3,
+        uc: f32,
+        u: Vec2,
+    ) -> (Vec3, u32) {
+        let geo = &scene.geometry;
+        let Some(ls) = scene.lights.sample(
+            at.hit.p,
+            at.ns,
+            uc,
+            u,
+            at.time,
+            geo,
+            &scene.materials,
+            &scene.textures,
+        ) else {
+            return (Vec3::ZERO, 0);
+        };
+        if !(ls.le.max_element() > 0.0 && ls.pdf > 0.0 && ls.wi.dot(at.ng_side) > 0.0) {
+            return (Vec3::ZERO, 0);
+        }
+        let wi = at.frame.to_local(ls.wi);
+        let f = at.bsdf.eval(at.wo, wi);
+        if f.max_element() <= 0.0 {
+            return (Vec3::ZERO, 0);
+        }
+        if !shadow_ray_clear(geo, at.hit, &ls, at.time) {
+            return (Vec3::ZERO, 1);
+        }
+        let w = if self.strategy == Strategy::Mis && !ls.delta {
+            power_heuristic(ls.pdf, at.bsdf.pdf(at.wo, wi))
+        } else {
+            1.0
+        };
+        (beta * f * wi.z.abs() * ls.le * (w / ls.pdf), 1)
     }
 
     /// Estimates the radiance arriving along `ray`.
@@ -273,57 +330,27 @@ impl Integrator {
 
             // Next-event estimation.
             let nee = !bsdf.is_delta() && self.strategy != Strategy::BsdfOnly;
-            let (uc_light, u_light) = if nee {
-                (rng.uniform(), rng.uniform2())
-            } else {
-                rng.skip();
-                rng.skip2();
-                (0.5, Vec2::splat(0.5))
-            };
-            if nee
-                && let Some(ls) = scene.lights.sample(
-                    hit.p,
+            let uc_light = rng.uniform_if(nee);
+            let u_light = rng.uniform2_if(nee);
+            if nee {
+                let at = Vertex {
+                    hit: &hit,
+                    time: ray.time,
+                    bsdf: &bsdf,
+                    frame: &frame,
+                    wo,
                     ns,
-                    uc_light,
-                    u_light,
-                    ray.time,
-                    geo,
-                    &scene.materials,
-                    &scene.textures,
-                )
-                && ls.le.max_element() > 0.0
-                && ls.pdf > 0.0
-                && ls.wi.dot(ng_side) > 0.0
-            {
-                let wi = frame.to_local(ls.wi);
-                let f = bsdf.eval(wo, wi);
-                if f.max_element() > 0.0 {
-                    rays += 1;
-                    if shadow_ray_clear(geo, &hit, &ls, ray.time) {
-                        let w = if self.strategy == Strategy::Mis && !ls.delta {
-                            power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
-                        } else {
-                            1.0
-                        };
-                        l += beta * f * wi.z.abs() * ls.le * (w / ls.pdf);
-                    }
-                }
+                    ng_side,
+                };
+                let (le, traced) = self.direct_light(scene, &at, beta, uc_light, u_light);
+                l += le;
+                rays += traced;
             }
 
             // BSDF sampling (numbers the BSDF ignores are passed over, not computed).
             let (uses_uc, uses_u) = bsdf.sample_uses();
-            let uc = if uses_uc {
-                rng.uniform()
-            } else {
-                rng.skip();
-                0.5
-            };
-            let u = if uses_u {
-                rng.uniform2()
-            } else {
-                rng.skip2();
-                Vec2::splat(0.5)
-            };
+            let uc = rng.uniform_if(uses_uc);
+            let u = rng.uniform2_if(uses_u);
             let Some(s) = bsdf.sample(wo, uc, u) else {
                 break;
             };

@@ -49,6 +49,26 @@ pub trait SampleSource {
     fn skip2(&mut self) {
         self.uniform2();
     }
+    /// The next dimension if `used`, else ½ after passing over it.
+    #[inline]
+    fn uniform_if(&mut self, used: bool) -> f32 {
+        if used {
+            self.uniform()
+        } else {
+            self.skip();
+            0.5
+        }
+    }
+    /// The next two dimensions if `used`, else (½, ½) after passing over them.
+    #[inline]
+    fn uniform2_if(&mut self, used: bool) -> Vec2 {
+        if used {
+            self.uniform2()
+        } else {
+            self.skip2();
+            Vec2::splat(0.5)
+        }
+    }
 }
 
 impl SampleSource for Rng {
