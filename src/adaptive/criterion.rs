@@ -93,15 +93,7 @@ pub(crate) struct PerceptualCriterion {
 
 /// Interleaved RGB box-filtered over (2r + 1)² pixels, channel by channel.
 fn pool_rgb(rgb: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
-    let planes: Vec<Vec<f32>> = (0..3)
-        .map(|c| {
-            let plane: Vec<f32> = rgb.iter().skip(c).step_by(3).copied().collect();
-            crate::math::box_mean(&plane, w, h, r)
-        })
-        .collect();
-    (0..w * h)
-        .flat_map(|i| planes.iter().map(move |p| p[i]))
-        .collect()
+    crate::math::box_mean_interleaved(rgb, w, h, 3, r)
 }
 
 /// The current image's 5×5-pooled mean, as the grades' slopes read it: the slope is taken at
@@ -120,9 +112,12 @@ impl PooledMean {
     fn new(mean: &[f32], w: usize, h: usize, scale: f32) -> PooledMean {
         let pooled = pool_rgb(mean, w, h, 2);
         PooledMean {
-            up: pooled.iter().map(|v| v * 1.05).collect(),
-            down: pooled.iter().map(|v| v * 0.95).collect(),
-            y: luminance_image(&pooled, scale),
+            up: pooled.par_iter().map(|v| v * 1.05).collect(),
+            down: pooled.par_iter().map(|v| v * 0.95).collect(),
+            y: pooled
+                .par_chunks_exact(3)
+                .map(|p| perception::photometry::luminance(p[0], p[1], p[2]) * scale)
+                .collect(),
         }
     }
 }
@@ -189,22 +184,25 @@ impl PerceptualCriterion {
             (Some(sal), Some(v)) => self.tracked_target(sal, v),
             _ => EyeTracking::PerPixel,
         };
-        let noise_contrast = lfs
+        // The guide scaled to each grade's mean level: one threshold computation serves all
+        // grades (band contrasts do not change with a scale).
+        let scales: Vec<f32> = lfs
             .iter()
             .map(|lf| {
                 let mean_f = lf.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
-                let k = if mean_a > 0.0 {
+                if mean_a > 0.0 && mean_f > 0.0 {
                     (mean_f / mean_a) as f32
                 } else {
                     1.0
-                };
-                let g_lum: Vec<f32> = a_lum.iter().map(|&v| v * k).collect();
-                let map = self
-                    .mapper
-                    .compute_tracked(&g_lum, self.velocity.as_deref(), eye)?;
-                Ok(map.noise_contrast)
+                }
             })
-            .collect::<perception::Result<Vec<_>>>()?;
+            .collect();
+        let noise_contrast = self
+            .mapper
+            .compute_scaled(&a_lum, &scales, self.velocity.as_deref(), eye)?
+            .into_iter()
+            .map(|m| m.noise_contrast)
+            .collect();
         self.state = Some(GuideState {
             noise_contrast,
             saliency,

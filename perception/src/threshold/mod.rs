@@ -126,6 +126,34 @@ pub struct ThresholdMap {
     pub noise_contrast: Vec<f32>,
 }
 
+/// Adaptation luminance of one scale: a canvas on a level (with that level's decimation), or
+/// one global value.
+enum Adaptation {
+    Local(Vec<f32>, usize),
+    Global(f32),
+}
+
+/// What every point evaluation needs besides the band: the padding, the image size and the
+/// retinal velocity per image pixel (deg/s), if any.
+struct PointContext<'a> {
+    pad: Padding,
+    width: usize,
+    height: usize,
+    v_retinal: Option<&'a [f32]>,
+}
+
+impl PointContext<'_> {
+    /// Retinal velocity of the image pixel under full-canvas coordinates.
+    #[inline(always)]
+    fn velocity_at(&self, xf: f32, yf: f32) -> Option<f32> {
+        self.v_retinal.map(|vr| {
+            let x = ((xf - self.pad.x0 as f32).floor().max(0.0) as usize).min(self.width - 1);
+            let y = ((yf - self.pad.y0 as f32).floor().max(0.0) as usize).min(self.height - 1);
+            vr[y * self.width + x]
+        })
+    }
+}
+
 /// One FFT resolution: the padded canvas decimated by `d`.
 #[derive(Debug)]
 struct Level {
@@ -154,19 +182,38 @@ struct Band {
 }
 
 /// Fraction of the power of white noise on the pixel grid passing the window of band `k`:
-/// the mean of H_k(f)² over the square [−½, ½]² of frequencies (cycles/pixel).
+/// the mean of H_k(f)² over the square [−½, ½]² of frequencies (cycles/pixel), by the midpoint
+/// rule on a 512² grid (one quadrant, by symmetry). The value depends on `k` alone, so it is
+/// computed once per process and kept.
 fn noise_share(k: usize) -> f64 {
-    const N: usize = 512;
-    let f_k = 1.0 / 2f64.powi(k as i32 + 1);
-    let mut acc = 0.0;
-    for i in 0..N {
-        for j in 0..N {
-            let fx = (i as f64 + 0.5) / N as f64 - 0.5;
-            let fy = (j as f64 + 0.5) / N as f64 - 0.5;
-            acc += band_window(k, f_k, (fx * fx + fy * fy).sqrt()).powi(2);
-        }
+    use std::sync::{Mutex, OnceLock};
+    static CACHE: OnceLock<Mutex<Vec<Option<f64>>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(|| Mutex::new(Vec::new()));
+    if let Some(Some(v)) = cache.lock().expect("not poisoned").get(k) {
+        return *v;
     }
-    acc / (N * N) as f64
+    const HALF: usize = 256;
+    let f_k = 1.0 / 2f64.powi(k as i32 + 1);
+    // Row sums in parallel, added in order: the same bits for any thread count.
+    let rows: Vec<f64> = (0..HALF)
+        .into_par_iter()
+        .map(|i| {
+            let fx = (i as f64 + 0.5) / (2 * HALF) as f64;
+            (0..HALF)
+                .map(|j| {
+                    let fy = (j as f64 + 0.5) / (2 * HALF) as f64;
+                    band_window(k, f_k, (fx * fx + fy * fy).sqrt()).powi(2)
+                })
+                .sum::<f64>()
+        })
+        .collect();
+    let v = rows.iter().sum::<f64>() / (HALF * HALF) as f64;
+    let mut c = cache.lock().expect("not poisoned");
+    if c.len() <= k {
+        c.resize(k + 1, None);
+    }
+    c[k] = Some(v);
+    v
 }
 
 /// Computes threshold maps for images of one size under one set of viewing conditions, with
@@ -402,102 +449,201 @@ impl ThresholdMapper {
         velocity: Option<&[f32]>,
         eye: EyeTracking,
     ) -> Result<ThresholdMap> {
+        let mut maps = self.compute_scaled(luminance, &[1.0], velocity, eye)?;
+        Ok(maps.pop().expect("one scale"))
+    }
+
+    /// The threshold maps of `luminance` multiplied by each of `scales` (the same image seen
+    /// brighter or darker, e.g. graded by whole stops), one per scale in that order, as
+    /// [`ThresholdMapper::compute_tracked`] would give for each scaled image, at the cost of
+    /// one: band contrasts do not change with a scale, so the spectrum and every band are
+    /// synthesised once and only the luminance-dependent sensitivities are evaluated per scale.
+    ///
+    /// # Errors
+    /// As [`ThresholdMapper::compute`], and [`PerceptionError::Parameter`] for a scale that is
+    /// not finite and positive.
+    pub fn compute_scaled(
+        &self,
+        luminance: &[f32],
+        scales: &[f32],
+        velocity: Option<&[f32]>,
+        eye: EyeTracking,
+    ) -> Result<Vec<ThresholdMap>> {
         let (w, h) = (self.width, self.height);
         check_image("luminance", luminance, w, h, 1, true)?;
         if let Some(v) = velocity {
             check_image("velocity", v, w, h, 2, false)?;
         }
-        let n = w * h;
+        if let Some(&k) = scales.iter().find(|k| !(k.is_finite() && **k > 0.0)) {
+            return Err(PerceptionError::Parameter {
+                name: "luminance scale",
+                value: k as f64,
+                range: "finite and > 0",
+            });
+        }
         let pad = &self.pad;
         let canvas = pad.pad(luminance);
         let spec = self.levels[0].fft.forward(&canvas);
-
-        // 1. Adaptation luminance, on its level's canvas and at the image pixels.
-        let (adapt_canvas, adapt_d) = self.adaptation_canvas(&canvas, &spec);
-        let global = if adapt_canvas.is_none() {
-            log_average(luminance)
-        } else {
-            0.0
-        };
-        let adapt_at = |xf: f32, yf: f32| -> f32 {
-            match &adapt_canvas {
-                None => global,
-                Some(c) => self.sample_level(c, adapt_d, xf, yf),
-            }
-        };
+        // 1. Adaptation luminance per scale, on its level's canvas (None: global).
+        let adapt = self.scaled_adaptation(luminance, &canvas, &spec, scales);
         // Retinal velocity per image pixel (deg/s), if any.
         let v_retinal = velocity.map(|v| self.retinal_velocities(v, eye));
-        let v_at = |xf: f32, yf: f32| -> Option<f32> {
-            v_retinal.as_ref().map(|vr| {
-                let x = ((xf - pad.x0 as f32).floor().max(0.0) as usize).min(w - 1);
-                let y = ((yf - pad.y0 as f32).floor().max(0.0) as usize).min(h - 1);
-                vr[y * w + x]
-            })
+        let ctx = PointContext {
+            pad: *pad,
+            width: w,
+            height: h,
+            v_retinal: v_retinal.as_deref(),
         };
+        let sums = self.band_sums(&spec, canvas, &adapt, &ctx, scales);
+        Ok(adapt
+            .iter()
+            .zip(sums)
+            .map(|(a, acc2)| self.finish(a, &acc2, &ctx))
+            .collect())
+    }
 
-        // 2–5. Band contributions (w, wE, wM, wEM), all evaluated on the half-resolution grid
-        // (d = 2; the local amplitude is pooled over at least a period anyway) and coarser
-        // grids, accumulated coarse to fine.
+    /// The adaptation luminance at each scale: a canvas on the adaptation level (local modes)
+    /// or one value (global).
+    fn scaled_adaptation(
+        &self,
+        luminance: &[f32],
+        canvas: &[f32],
+        spec: &[Complex32],
+        scales: &[f32],
+    ) -> Vec<Adaptation> {
+        let one = match self.params.adaptation {
+            AdaptationMode::LocalGeometric => None,
+            _ => Some(self.adaptation_canvas(canvas, spec)),
+        };
+        scales
+            .iter()
+            .map(|&k| match (&one, self.params.adaptation) {
+                (Some((None, _)), _) => {
+                    let scaled: Vec<f32> = luminance.iter().map(|l| l * k).collect();
+                    Adaptation::Global(log_average(&scaled))
+                }
+                // The arithmetic mean scales with the image.
+                (Some((Some(c), d)), _) => Adaptation::Local(c.iter().map(|v| v * k).collect(), *d),
+                // The geometric mean (of δ + L) does not: computed for each scale.
+                _ => {
+                    let c: Vec<f32> = canvas.iter().map(|l| l * k).collect();
+                    let s = self.levels[0].fft.forward(&c);
+                    match self.adaptation_canvas(&c, &s) {
+                        (Some(a), d) => Adaptation::Local(a, d),
+                        (None, _) => unreachable!("local mode"),
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// Steps 2–5: the bands' sums (w, wE, wM, wEM, noise) per scale on the half-resolution
+    /// grid (d = 2; the local amplitude is pooled over at least a period anyway), bands
+    /// synthesised once on their own grids and accumulated coarse to fine.
+    fn band_sums(
+        &self,
+        spec: &[Complex32],
+        canvas: Vec<f32>,
+        adapt: &[Adaptation],
+        ctx: &PointContext,
+        scales: &[f32],
+    ) -> Vec<Vec<[f32; NSUM]>> {
         let lv2 = &self.levels[1];
         let (w2, h2) = (lv2.fft.width(), lv2.fft.height());
-        let mut acc: Option<(usize, Vec<[f32; NSUM]>)> = None;
-        let eval = |band: &Band, level: usize, amp: &[f32], lp: &[f32]| -> Vec<[f32; NSUM]> {
-            let lv = &self.levels[level];
-            let (lw, d) = (lv.fft.width(), lv.d as f32);
-            let mut sums = vec![[0f32; NSUM]; amp.len()];
-            sums.par_chunks_mut(lw).enumerate().for_each(|(y, row)| {
-                let yf = (y as f32 + 0.5) * d;
-                for (x, o) in row.iter_mut().enumerate() {
-                    let i = y * lw + x;
-                    let xf = (x as f32 + 0.5) * d;
-                    let la = adapt_at(xf, yf);
-                    let l2 = fast_log2(la.max(1e-30));
-                    let s_max = self.peak.get_log2(l2);
-                    *o = self.contribution(band, amp[i], lp[i], l2, s_max, v_at(xf, yf));
-                }
-            });
-            sums
-        };
+        let mut acc: Vec<Option<Vec<[f32; NSUM]>>> = vec![None; scales.len()];
         for band in self.bands.iter().skip(2).rev() {
             let lv = &self.levels[band.level];
             let (lw, lh) = (lv.fft.width(), lv.fft.height());
-            let b = self.synthesize(&spec, band.level, &band.filter);
-            let lp = self.synthesize(&spec, band.level, band.lowpass.as_ref().expect("k ≥ 2"));
+            let b = self.synthesize(spec, band.level, &band.filter);
+            let lp = self.synthesize(spec, band.level, band.lowpass.as_ref().expect("k ≥ 2"));
             let amp = local_amplitude(&b, lw, lh, band.blur_radius);
-            let mut sums = eval(band, band.level, &amp, &lp);
-            if let Some((_, coarse)) = &acc {
-                upsample2_add(coarse, lw / 2, lh / 2, &mut sums, lw);
+            for ((a, &k), slot) in adapt.iter().zip(scales).zip(acc.iter_mut()) {
+                let mut sums = self.eval_band(band, band.level, &amp, &lp, a, k, ctx);
+                if let Some(coarse) = slot {
+                    upsample2_add(coarse, lw / 2, lh / 2, &mut sums, lw);
+                }
+                *slot = Some(sums);
             }
-            acc = Some((band.level, sums));
         }
         // Bands 0 and 1: synthesised at full resolution, their energy and low-pass (by
         // subtraction) averaged over 2×2 blocks onto the d = 2 grid.
-        let mut acc2 = match acc {
-            Some((level, sums)) => {
-                debug_assert_eq!(level, 1);
-                sums
-            }
-            None => vec![[0f32; NSUM]; w2 * h2],
-        };
-        let (pw, ph) = (pad.padded_width, pad.padded_height);
+        let mut acc2: Vec<Vec<[f32; NSUM]>> = acc
+            .into_iter()
+            .map(|a| a.unwrap_or_else(|| vec![[0f32; NSUM]; w2 * h2]))
+            .collect();
+        let (pw, ph) = (self.pad.padded_width, self.pad.padded_height);
         let mut lowpass = canvas;
         for band in self.bands.iter().take(2) {
-            let b = self.synthesize(&spec, 0, &band.filter);
+            let b = self.synthesize(spec, 0, &band.filter);
             lowpass
                 .par_iter_mut()
                 .zip(b.par_iter())
                 .for_each(|(l, bv)| *l -= bv);
             let amp = decimate2(&local_amplitude(&b, pw, ph, band.blur_radius), pw, ph);
             let lp = decimate2(&lowpass, pw, ph);
-            let sums = eval(band, 1, &amp, &lp);
-            acc2.par_iter_mut().zip(sums.par_iter()).for_each(|(a, s)| {
-                for k in 0..NSUM {
-                    a[k] += s[k];
-                }
-            });
+            for ((a, &k), total) in adapt.iter().zip(scales).zip(acc2.iter_mut()) {
+                let sums = self.eval_band(band, 1, &amp, &lp, a, k, ctx);
+                total
+                    .par_iter_mut()
+                    .zip(sums.par_iter())
+                    .for_each(|(t, s)| {
+                        for j in 0..NSUM {
+                            t[j] += s[j];
+                        }
+                    });
+            }
         }
+        acc2
+    }
 
-        // Per image pixel: adaptation, and the bands' sums interpolated from the d = 2 grid.
+    /// One band's contributions on `level`'s grid for the image scaled by `k` (amplitude and
+    /// low-pass of the unscaled image).
+    #[allow(clippy::too_many_arguments)]
+    fn eval_band(
+        &self,
+        band: &Band,
+        level: usize,
+        amp: &[f32],
+        lp: &[f32],
+        adapt: &Adaptation,
+        k: f32,
+        ctx: &PointContext,
+    ) -> Vec<[f32; NSUM]> {
+        let lv = &self.levels[level];
+        let (lw, d) = (lv.fft.width(), lv.d as f32);
+        let mut sums = vec![[0f32; NSUM]; amp.len()];
+        sums.par_chunks_mut(lw).enumerate().for_each(|(y, row)| {
+            let yf = (y as f32 + 0.5) * d;
+            for (x, o) in row.iter_mut().enumerate() {
+                let i = y * lw + x;
+                let xf = (x as f32 + 0.5) * d;
+                let la = self.adapt_at(adapt, xf, yf);
+                let l2 = fast_log2(la.max(1e-30));
+                let s_max = self.peak.get_log2(l2);
+                let v = ctx.velocity_at(xf, yf);
+                *o = self.contribution(band, amp[i] * k, lp[i] * k, l2, s_max, v);
+            }
+        });
+        sums
+    }
+
+    /// Adaptation luminance at full-canvas coordinates.
+    #[inline(always)]
+    fn adapt_at(&self, a: &Adaptation, xf: f32, yf: f32) -> f32 {
+        match a {
+            Adaptation::Global(g) => *g,
+            Adaptation::Local(c, d) => self.sample_level(c, *d, xf, yf),
+        }
+    }
+
+    /// Per image pixel: adaptation, the bands' sums interpolated from the d = 2 grid, and the
+    /// map made from them.
+    fn finish(&self, adapt: &Adaptation, acc2: &[[f32; NSUM]], ctx: &PointContext) -> ThresholdMap {
+        let (w, h) = (ctx.width, ctx.height);
+        let pad = &ctx.pad;
+        let lv2 = &self.levels[1];
+        let (w2, h2) = (lv2.fft.width(), lv2.fft.height());
+        let n = w * h;
         let mut adaptation = vec![0f32; n];
         let mut sum = vec![[0f32; NSUM]; n];
         adaptation
@@ -508,8 +654,8 @@ impl ThresholdMapper {
                 let yf = (pad.y0 + y) as f32 + 0.5;
                 for x in 0..w {
                     let xf = (pad.x0 + x) as f32 + 0.5;
-                    ra[x] = adapt_at(xf, yf);
-                    rs[x] = bilinear_n(&acc2, w2, h2, xf / 2.0 - 0.5, yf / 2.0 - 0.5);
+                    ra[x] = self.adapt_at(adapt, xf, yf);
+                    rs[x] = bilinear_n(acc2, w2, h2, xf / 2.0 - 0.5, yf / 2.0 - 0.5);
                 }
             });
 
@@ -535,7 +681,7 @@ impl ThresholdMapper {
             .zip(elevation.par_iter())
             .map(|(&la, &f)| self.tvi.get(la) * f)
             .collect();
-        Ok(ThresholdMap {
+        ThresholdMap {
             width: w,
             height: h,
             threshold,
@@ -544,7 +690,7 @@ impl ThresholdMapper {
             frequency_elevation,
             masking_elevation,
             noise_contrast,
-        })
+        }
     }
 
     /// The adaptation luminance on its level's canvas (with that level's decimation), or `None`

@@ -277,3 +277,65 @@ fn tracking_a_target_raises_thresholds_of_what_does_not_move_with_it() {
     let b = mapper.compute(&img, Some(&with_target)).unwrap();
     assert!((a.threshold[c] / b.threshold[c] - 1.0).abs() < 1e-3);
 }
+
+#[test]
+fn scaled_maps_equal_maps_of_the_scaled_image() {
+    // compute_scaled shares the spectrum and bands across scales; each of its maps must be the
+    // map of the image multiplied by that scale, computed on its own, in every adaptation mode
+    // and with motion (the velocity factor is evaluated per scale too).
+    let (w, h) = (96, 64);
+    let img: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32, (i / w) as f32);
+            40.0 + 30.0 * (x * 0.7).sin() * (y * 0.3).cos() + if x > 50.0 { 200.0 } else { 0.0 }
+        })
+        .collect();
+    let vel: Vec<f32> = (0..w * h)
+        .flat_map(|i| [(i % 7) as f32 * 0.5, 1.0])
+        .collect();
+    let scales = [0.25f32, 1.0, 4.0, 1e-3];
+    for mode in [
+        AdaptationMode::LocalArithmetic,
+        AdaptationMode::LocalGeometric,
+        AdaptationMode::Global,
+    ] {
+        let params = ThresholdParams {
+            adaptation: mode,
+            ..ThresholdParams::default()
+        };
+        let m = ThresholdMapper::new(w, h, ViewingConditions::default(), params).unwrap();
+        for v in [None, Some(vel.as_slice())] {
+            let maps = m
+                .compute_scaled(&img, &scales, v, EyeTracking::PerPixel)
+                .unwrap();
+            for (&k, got) in scales.iter().zip(&maps) {
+                let scaled: Vec<f32> = img.iter().map(|l| l * k).collect();
+                let want = m.compute(&scaled, v).unwrap();
+                let close = |a: &[f32], b: &[f32], what: &str| {
+                    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+                        assert!(
+                            (x - y).abs() <= 2e-3 * y.abs().max(1e-6),
+                            "{mode:?} k {k} {what}[{i}]: {x} vs {y}"
+                        );
+                    }
+                };
+                close(&got.noise_contrast, &want.noise_contrast, "noise_contrast");
+                close(&got.threshold, &want.threshold, "threshold");
+                close(&got.adaptation, &want.adaptation, "adaptation");
+            }
+        }
+    }
+    let m = ThresholdMapper::new(
+        w,
+        h,
+        ViewingConditions::default(),
+        ThresholdParams::default(),
+    )
+    .unwrap();
+    for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+        assert!(matches!(
+            m.compute_scaled(&img, &[1.0, bad], None, EyeTracking::PerPixel),
+            Err(PerceptionError::Parameter { .. })
+        ));
+    }
+}
