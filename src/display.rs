@@ -8,6 +8,7 @@ use perception::tmo::pattanaik00::AdaptationState;
 use perception::tmo::{Display, Operator};
 use perception::viewing::ViewingConditions;
 use plotters::prelude::*;
+use rayon::prelude::*;
 use std::sync::Once;
 
 /// How an HDR image becomes a display image.
@@ -83,6 +84,8 @@ pub struct FrozenToneMap {
     settings: ToneMapSettings,
     width: usize,
     height: usize,
+    /// The adaptation map (cd/m²), for the operators that map through one (TR, FPSG, WRP,
+    /// static PTYG); empty for the others.
     adaptation: Vec<f32>,
     exposure_scale: f64,
     reinhard: (f64, f64),
@@ -106,7 +109,17 @@ impl FrozenToneMap {
         } else {
             s.adaptation
         };
-        let adaptation = adaptation_luminance(&lum, width, height, &s.view, mode, 1.0)?;
+        // Only the operators that map through a local adaptation map need it.
+        let needs_map = match s.operator {
+            Operator::Exposure | Operator::Reinhard => false,
+            Operator::Ptyg => s.adaptation_state.is_none(),
+            Operator::Tr | Operator::Fpsg | Operator::Wrp => true,
+        };
+        let adaptation = if needs_map {
+            adaptation_luminance(&lum, width, height, &s.view, mode, 1.0)?
+        } else {
+            Vec::new()
+        };
         let exposure = perception::tmo::exposure::Exposure::default();
         let adapted = match s.adaptation_state {
             Some(state) => state.cone_neural,
@@ -157,7 +170,7 @@ impl FrozenToneMap {
         use perception::tmo::*;
         let s = &self.settings;
         let rgb_cd: Vec<f32> = rgb
-            .iter()
+            .par_iter()
             .map(|&v| (v * s.luminance_scale).max(0.0))
             .collect();
         let (w, h) = (self.width, self.height);
@@ -204,7 +217,11 @@ impl FrozenToneMap {
     /// As [`FrozenToneMap::map`].
     pub fn display_luminance(&self, rgb: &[f32]) -> perception::Result<Vec<f32>> {
         let k = self.display_max_cd_m2() as f32;
-        Ok(luminance_image(&self.map(rgb)?, k))
+        Ok(self
+            .map(rgb)?
+            .par_chunks_exact(3)
+            .map(|p| perception::photometry::luminance(p[0], p[1], p[2]) * k)
+            .collect())
     }
 }
 

@@ -72,24 +72,47 @@ pub fn luminance(rgb: Vec3) -> f32 {
 /// edges clamped (the border pixels repeat). The one box filter of the renderer: 3×3 for the
 /// adaptive sampler's error estimate, 5×5 for FLIP's p99 pooling.
 pub fn box_mean(v: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
+    box_mean_interleaved(v, w, h, 1, r)
+}
+
+/// [`box_mean`] of each channel of an image with `c` interleaved channels (`w × h × c`),
+/// separably: a horizontal pass, then a vertical one, rows in parallel.
+///
+/// # Panics
+/// If `v.len() != w · h · c`.
+pub fn box_mean_interleaved(v: &[f32], w: usize, h: usize, c: usize, r: usize) -> Vec<f32> {
     use rayon::prelude::*;
-    let r = r as i64;
-    let norm = ((2 * r + 1) * (2 * r + 1)) as f32;
-    (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = ((i % w) as i64, (i / w) as i64);
-            let mut s = 0.0;
-            for dy in -r..=r {
-                for dx in -r..=r {
-                    let xx = (x + dx).clamp(0, w as i64 - 1) as usize;
-                    let yy = (y + dy).clamp(0, h as i64 - 1) as usize;
-                    s += v[yy * w + xx];
+    assert_eq!(v.len(), w * h * c, "box_mean: buffer is not {w}×{h}×{c}");
+    let row = w * c;
+    let clamp = |i: i64, n: usize| i.clamp(0, n as i64 - 1) as usize;
+    let mut across = vec![0f32; v.len()];
+    across
+        .par_chunks_mut(row.max(1))
+        .zip(v.par_chunks(row.max(1)))
+        .for_each(|(out, src)| {
+            for x in 0..w {
+                for ch in 0..c {
+                    let mut s = 0.0;
+                    for dx in -(r as i64)..=r as i64 {
+                        s += src[clamp(x as i64 + dx, w) * c + ch];
+                    }
+                    out[x * c + ch] = s;
                 }
             }
-            s / norm
-        })
-        .collect()
+        });
+    let norm = ((2 * r + 1) * (2 * r + 1)) as f32;
+    let mut out = vec![0f32; v.len()];
+    out.par_chunks_mut(row.max(1))
+        .enumerate()
+        .for_each(|(y, o)| {
+            for dy in -(r as i64)..=r as i64 {
+                let yy = clamp(y as i64 + dy, h);
+                let src = &across[yy * row..(yy + 1) * row];
+                o.iter_mut().zip(src).for_each(|(a, b)| *a += b);
+            }
+            o.iter_mut().for_each(|a| *a /= norm);
+        });
+    out
 }
 
 /// |v| that does not overflow: glam's `length` squares the components, which is infinite in f32
@@ -128,6 +151,41 @@ mod tests {
     use super::*;
     use crate::rng::Rng;
     use crate::sampling::square_to_uniform_sphere;
+
+    #[test]
+    fn separable_box_mean_equals_the_direct_window_sum() {
+        // The direct definition: the mean of the clamped (2r+1)² window, channel by channel.
+        let (w, h, c) = (13, 7, 3);
+        let mut rng = Rng::new(5, 0);
+        let v: Vec<f32> = (0..w * h * c).map(|_| rng.uniform() * 10.0).collect();
+        for r in [0usize, 1, 2, 4, 9] {
+            let got = box_mean_interleaved(&v, w, h, c, r);
+            for y in 0..h {
+                for x in 0..w {
+                    for ch in 0..c {
+                        let mut s = 0.0f64;
+                        for dy in -(r as i64)..=r as i64 {
+                            for dx in -(r as i64)..=r as i64 {
+                                let xx = (x as i64 + dx).clamp(0, w as i64 - 1) as usize;
+                                let yy = (y as i64 + dy).clamp(0, h as i64 - 1) as usize;
+                                s += v[(yy * w + xx) * c + ch] as f64;
+                            }
+                        }
+                        let want = s / ((2 * r + 1) * (2 * r + 1)) as f64;
+                        let g = got[(y * w + x) * c + ch] as f64;
+                        assert!(
+                            (g - want).abs() < 1e-5 * want.max(1.0),
+                            "r {r} ({x},{y},{ch})"
+                        );
+                    }
+                }
+            }
+        }
+        let plane: Vec<f32> = v.iter().step_by(3).copied().collect();
+        let one = box_mean(&plane, w, h, 2);
+        let three = box_mean_interleaved(&v, w, h, 3, 2);
+        assert!(one.iter().zip(three.iter().step_by(3)).all(|(a, b)| a == b));
+    }
 
     #[test]
     fn frame_is_orthonormal_and_round_trips() {

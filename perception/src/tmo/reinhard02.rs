@@ -33,8 +33,12 @@ impl Default for Reinhard02 {
 impl Reinhard02 {
     /// The curve's parameters for an image: (L̄_w, L_white in scaled units).
     pub fn parameters(&self, rgb_cd_m2: &[f32]) -> (f64, f64) {
+        if let (Some(lbar), Some(white)) = (self.log_average, self.white) {
+            // Frozen: nothing to read from the image.
+            return (lbar.max(1e-9), white);
+        }
         let lum: Vec<f32> = rgb_cd_m2
-            .chunks_exact(3)
+            .par_chunks_exact(3)
             .map(|p| luminance(p[0], p[1], p[2]))
             .collect();
         let lbar = self
@@ -47,26 +51,21 @@ impl Reinhard02 {
 
     /// Maps linear RGB (cd/m²) to display values in [0, 1].
     pub fn map(&self, rgb_cd_m2: &[f32]) -> Vec<f32> {
-        let lum: Vec<f32> = rgb_cd_m2
-            .chunks_exact(3)
-            .map(|p| luminance(p[0], p[1], p[2]))
-            .collect();
         let (lbar, white) = self.parameters(rgb_cd_m2);
         let scale = self.key / lbar;
         let white2 = white.max(1e-9).powi(2);
-        rgb_cd_m2
-            .par_chunks_exact(3)
-            .zip(lum.par_iter())
-            .flat_map_iter(|(p, &lw)| {
+        let mut out = vec![0f32; rgb_cd_m2.len() - rgb_cd_m2.len() % 3];
+        out.par_chunks_exact_mut(3)
+            .zip(rgb_cd_m2.par_chunks_exact(3))
+            .for_each(|(o, p)| {
+                let lw = luminance(p[0], p[1], p[2]);
                 let lm = lw as f64 * scale;
                 let ld = lm * (1.0 + lm / white2) / (1.0 + lm);
                 let k = if lw > 0.0 { ld / lw as f64 } else { 0.0 };
-                [
-                    unit(p[0] as f64 * k),
-                    unit(p[1] as f64 * k),
-                    unit(p[2] as f64 * k),
-                ]
-            })
-            .collect()
+                for c in 0..3 {
+                    o[c] = unit(p[c] as f64 * k);
+                }
+            });
+        out
     }
 }
