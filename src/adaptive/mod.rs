@@ -501,11 +501,15 @@ pub fn render_adaptive(
         _ => Criterion::Variance(VarianceCriterion::new(&st.film, s.variance_threshold)),
     };
     let mut rate = st.stats.samples as f64 / st.stats.wall.as_secs_f64().max(1e-9);
+    let mut max_judge = Duration::ZERO;
     let (judgement, stop) = loop {
         let t0 = Instant::now();
         let (judgement, guide_time) = criterion.judge(scene, &st.film, s)?;
-        let last_judge = t0.elapsed().saturating_sub(guide_time);
-        st.decision_time += last_judge;
+        let judged = t0.elapsed().saturating_sub(guide_time);
+        st.decision_time += judged;
+        // A judgement that recomputes the threshold map costs more than one that only updates
+        // the error: the time budget reserves the costliest seen.
+        max_judge = max_judge.max(judged);
         let ratio = judgement.ratio();
         let converged = st.report(&ratio, progress);
         let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
@@ -535,7 +539,7 @@ pub fn render_adaptive(
         if let Some(limit) = s.time_budget {
             // Size the pass to land on the time budget: the samples the measured rate allows
             // in the time left after the judgement that follows the pass.
-            let left = limit.saturating_sub(start.elapsed() + last_judge);
+            let left = limit.saturating_sub(start.elapsed() + max_judge);
             let affordable = (left.as_secs_f64() * rate) as u64;
             if (affordable as f64) < 0.002 * n_px as f64 {
                 break (judgement, StopReason::Time);

@@ -84,7 +84,10 @@ pub struct SamplingArgs {
         help_heading = "Adaptive sampling"
     )]
     pub max_spp: u32,
-    /// Stop after this many seconds (the image then depends on the machine's speed).
+    /// Stop after this many seconds of rendering: the passes, the guide and the decisions
+    /// between them (loading the scene and writing the outputs come on top). The last pass is
+    /// sized from the measured sample rate to land on the budget. The image then depends on
+    /// the machine's speed.
     #[arg(long, value_name = "SECONDS", help_heading = "Adaptive sampling")]
     pub time: Option<f64>,
     /// Where visibility is judged.
