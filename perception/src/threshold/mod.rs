@@ -182,38 +182,39 @@ struct Band {
 }
 
 /// Fraction of the power of white noise on the pixel grid passing the window of band `k`:
-/// the mean of H_k(f)² over the square [−½, ½]² of frequencies (cycles/pixel), by the midpoint
-/// rule on a 512² grid (one quadrant, by symmetry). The value depends on `k` alone, so it is
-/// computed once per process and kept.
+/// the mean of H_k(f)² over the square [−½, ½]² of frequencies (cycles/pixel).
+///
+/// The window is radial, and for k ≥ 1 its support (f ≤ 2 f_k ≤ ½) lies inside the disc the
+/// square holds, so in polar coordinates with f = f_k 2^x:
+/// φ_k² = 2π ln 2 · f_k² ∫₋₁¹ cos⁴(πx/2) 4^x dx. Band 0 is 1 above f_0 = ½ (the square's
+/// area outside that disc, 1 − π/4) plus the same integral over x ∈ [−1, 0].
 fn noise_share(k: usize) -> f64 {
-    use std::sync::{Mutex, OnceLock};
-    static CACHE: OnceLock<Mutex<Vec<Option<f64>>>> = OnceLock::new();
-    let cache = CACHE.get_or_init(|| Mutex::new(Vec::new()));
-    if let Some(Some(v)) = cache.lock().expect("not poisoned").get(k) {
-        return *v;
-    }
-    const HALF: usize = 256;
+    use std::f64::consts::{FRAC_PI_2, LN_2, PI};
     let f_k = 1.0 / 2f64.powi(k as i32 + 1);
-    // Row sums in parallel, added in order: the same bits for any thread count.
-    let rows: Vec<f64> = (0..HALF)
-        .into_par_iter()
+    let (hi, outer) = if k == 0 {
+        (0.0, 1.0 - PI / 4.0)
+    } else {
+        (1.0, 0.0)
+    };
+    // Simpson's rule; the integrand is smooth.
+    const N: usize = 2000;
+    let g = |x: f64| (FRAC_PI_2 * x).cos().powi(4) * 4f64.powf(x);
+    let step = (hi + 1.0) / N as f64;
+    let inner: f64 = (0..=N)
         .map(|i| {
-            let fx = (i as f64 + 0.5) / (2 * HALF) as f64;
-            (0..HALF)
-                .map(|j| {
-                    let fy = (j as f64 + 0.5) / (2 * HALF) as f64;
-                    band_window(k, f_k, (fx * fx + fy * fy).sqrt()).powi(2)
-                })
-                .sum::<f64>()
+            let wgt = if i == 0 || i == N {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
+            wgt * g(-1.0 + i as f64 * step)
         })
-        .collect();
-    let v = rows.iter().sum::<f64>() / (HALF * HALF) as f64;
-    let mut c = cache.lock().expect("not poisoned");
-    if c.len() <= k {
-        c.resize(k + 1, None);
-    }
-    c[k] = Some(v);
-    v
+        .sum::<f64>()
+        * step
+        / 3.0;
+    outer + 2.0 * PI * LN_2 * f_k * f_k * inner
 }
 
 /// Computes threshold maps for images of one size under one set of viewing conditions, with
@@ -264,6 +265,7 @@ fn band_window(k: usize, f_k: f64, f: f64) -> f64 {
 fn level_frequencies(fft: &Fft2d, d: usize) -> Vec<f64> {
     let (wc, h) = (fft.spectrum_rows(), fft.height());
     (0..wc * h)
+        .into_par_iter()
         .map(|i| fft.frequency(i / h, i % h) / d as f64)
         .collect()
 }
@@ -327,7 +329,7 @@ impl ThresholdMapper {
         let adapt_level = level_of(adapt_d);
         let k = -2.0 * std::f64::consts::PI.powi(2) * sigma * sigma;
         let adapt_filter = level_frequencies(&levels[adapt_level].fft, adapt_d)
-            .iter()
+            .par_iter()
             .map(|f| (k * f * f).exp() as f32)
             .collect();
 
@@ -344,11 +346,11 @@ impl ThresholdMapper {
             let d = band_d(kb);
             let freq = level_frequencies(&levels[level_of(d)].fft, d);
             let filter = freq
-                .iter()
+                .par_iter()
                 .map(|&f| band_window(kb, f_k, f) as f32)
                 .collect();
             let lowpass = (kb >= 2).then(|| {
-                freq.iter()
+                freq.par_iter()
                     .map(|&f| {
                         let above: f64 = (0..=kb)
                             .map(|j| band_window(j, 1.0 / 2f64.powi(j as i32 + 1), f))

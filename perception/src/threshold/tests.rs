@@ -149,7 +149,7 @@ fn bad_input_is_an_error_not_a_panic() {
 
 #[test]
 fn noise_threshold_rises_in_the_dark_and_under_masking_in_its_own_bands() {
-    // Flat fields at FLIP's 67 ppd. White pixel noise puts ≈ 85 % of its power in band 0 (33 cpd,
+    // Flat fields at FLIP's 67 ppd. White pixel noise puts ≈ 52 % of its power in band 0 (33 cpd,
     // where Daly's S ≈ 5 at 100 cd/m²) and most of its *visibility* in bands 1–3 (8–16 cpd,
     // S ≈ 60–180): C_noise = 1/sqrt(Σ φ² S²) ≈ 2 % at 100 cd/m². At 1 cd/m² every S_k falls
     // (peak 117 vs 237, and faster at high frequency), so the threshold contrast rises: dark
@@ -338,4 +338,33 @@ fn scaled_maps_equal_maps_of_the_scaled_image() {
             Err(PerceptionError::Parameter { .. })
         ));
     }
+}
+
+#[test]
+fn noise_shares_match_the_mean_over_the_frequency_square() {
+    // The definition, by the midpoint rule on a 1024² grid of frequencies in [−½, ½]²; the
+    // closed form must agree, and the shares of all bands plus the residual below them sum to
+    // the whole white-noise power.
+    for k in 0..6 {
+        const N: usize = 1024;
+        let f_k = 1.0 / 2f64.powi(k as i32 + 1);
+        let mut acc = 0.0;
+        for i in 0..N {
+            for j in 0..N {
+                let fx = (i as f64 + 0.5) / N as f64 - 0.5;
+                let fy = (j as f64 + 0.5) / N as f64 - 0.5;
+                acc += band_window(k, f_k, (fx * fx + fy * fy).sqrt()).powi(2);
+            }
+        }
+        let grid = acc / (N * N) as f64;
+        let closed = noise_share(k);
+        assert!(
+            (closed - grid).abs() < 2e-3 * grid + 1e-7,
+            "band {k}: closed form {closed} against the grid's {grid}"
+        );
+    }
+    // The windows sum to one, so their squares sum to less: the shares cannot exceed the
+    // whole power.
+    let total: f64 = (0..12).map(noise_share).sum();
+    assert!(total > 0.5 && total < 1.0, "Σ φ² = {total}");
 }
