@@ -443,6 +443,16 @@ impl Criterion {
         }
     }
 
+    /// The mean spp at or above which the next judgement recomputes the threshold map (and
+    /// so costs more than one that only updates the error); `None` when every judgement costs
+    /// the same (the variance criterion) or none was made yet.
+    pub fn next_refresh_spp(&self) -> Option<f64> {
+        match self {
+            Criterion::Perceptual(p) => p.threshold.as_ref().map(|(at, _)| at * REFRESH_SPP_FACTOR),
+            Criterion::Variance(_) => None,
+        }
+    }
+
     /// Counters of the guide render (perceptual only).
     pub fn guide_stats(&self) -> Option<RenderStats> {
         match self {

@@ -501,15 +501,14 @@ pub fn render_adaptive(
         _ => Criterion::Variance(VarianceCriterion::new(&st.film, s.variance_threshold)),
     };
     let mut rate = st.stats.samples as f64 / st.stats.wall.as_secs_f64().max(1e-9);
-    let mut max_judge = Duration::ZERO;
+    let mut cost = JudgeCost::default();
     let (judgement, stop) = loop {
         let t0 = Instant::now();
+        let refresh_before = criterion.next_refresh_spp();
         let (judgement, guide_time) = criterion.judge(scene, &st.film, s)?;
         let judged = t0.elapsed().saturating_sub(guide_time);
         st.decision_time += judged;
-        // A judgement that recomputes the threshold map costs more than one that only updates
-        // the error: the time budget reserves the costliest seen.
-        max_judge = max_judge.max(judged);
+        cost.record(judged, criterion.next_refresh_spp() != refresh_before);
         let ratio = judgement.ratio();
         let converged = st.report(&ratio, progress);
         let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
@@ -538,13 +537,25 @@ pub fn render_adaptive(
         }
         if let Some(limit) = s.time_budget {
             // Size the pass to land on the time budget: the samples the measured rate allows
-            // in the time left after the judgement that follows the pass.
-            let left = limit.saturating_sub(start.elapsed() + max_judge);
-            let affordable = (left.as_secs_f64() * rate) as u64;
-            if (affordable as f64) < 0.002 * n_px as f64 {
+            // in the time left after the judgement that follows the pass. That judgement
+            // costs a refresh of the threshold map if the pass takes the film past the refresh
+            // point, else an update of the error.
+            let taken = st.region_samples() as f64;
+            let affordable = |judge: Duration| {
+                let left = limit.saturating_sub(start.elapsed() + judge);
+                (left.as_secs_f64() * rate) as u64
+            };
+            let mut samples = affordable(cost.update);
+            if criterion
+                .next_refresh_spp()
+                .is_some_and(|at| (taken + samples as f64) / n_px as f64 >= at)
+            {
+                samples = affordable(cost.refresh);
+            }
+            if (samples as f64) < 0.002 * n_px as f64 {
                 break (judgement, StopReason::Time);
             }
-            fit_to_budget(&mut alloc, &st.film, &ratio, affordable, s.max_spp);
+            fit_to_budget(&mut alloc, &st.film, &ratio, samples, s.max_spp);
         }
         let pass = render_counts(
             scene,
@@ -577,6 +588,30 @@ pub fn render_adaptive(
         wall: start.elapsed(),
         velocity,
     })
+}
+
+/// Measured wall time of the two kinds of judgement, for sizing the last pass of a time budget.
+#[derive(Default)]
+struct JudgeCost {
+    /// The last judgement that recomputed the threshold map (the first one included, which
+    /// also made the guide's maps: an overestimate that errs towards ending early).
+    refresh: Duration,
+    /// The last judgement that only updated the error.
+    update: Duration,
+}
+
+impl JudgeCost {
+    fn record(&mut self, t: Duration, refreshed: bool) {
+        if refreshed {
+            self.refresh = t;
+        } else {
+            self.update = t;
+        }
+        // Until an update has been seen, assume it costs as much as a refresh.
+        if self.update.is_zero() {
+            self.update = self.refresh;
+        }
+    }
 }
 
 /// The result when the first pass spent the budget: nothing is left to steer, so nothing is
