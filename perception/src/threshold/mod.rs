@@ -513,30 +513,34 @@ impl ThresholdMapper {
         spec: &[Complex32],
         scales: &[f32],
     ) -> Vec<Adaptation> {
-        let one = match self.params.adaptation {
-            AdaptationMode::LocalGeometric => None,
-            _ => Some(self.adaptation_canvas(canvas, spec)),
-        };
-        scales
-            .iter()
-            .map(|&k| match (&one, self.params.adaptation) {
-                (Some((None, _)), _) => {
+        let local = |(c, d): (Option<Vec<f32>>, usize)| Adaptation::Local(c.expect("local"), d);
+        match self.params.adaptation {
+            AdaptationMode::Global => scales
+                .iter()
+                .map(|&k| {
                     let scaled: Vec<f32> = luminance.iter().map(|l| l * k).collect();
                     Adaptation::Global(log_average(&scaled))
-                }
-                // The arithmetic mean scales with the image.
-                (Some((Some(c), d)), _) => Adaptation::Local(c.iter().map(|v| v * k).collect(), *d),
-                // The geometric mean (of δ + L) does not: computed for each scale.
-                _ => {
+                })
+                .collect(),
+            // The arithmetic mean scales with the image: one canvas serves every scale.
+            AdaptationMode::LocalArithmetic => {
+                let (c, d) = self.adaptation_canvas(canvas, spec);
+                let c = c.expect("local mode");
+                scales
+                    .iter()
+                    .map(|&k| Adaptation::Local(c.iter().map(|v| v * k).collect(), d))
+                    .collect()
+            }
+            // The geometric mean (of δ + L) does not: computed for each scale (from the
+            // scaled canvas's logarithms; the spectrum is not used).
+            AdaptationMode::LocalGeometric => scales
+                .iter()
+                .map(|&k| {
                     let c: Vec<f32> = canvas.iter().map(|l| l * k).collect();
-                    let s = self.levels[0].fft.forward(&c);
-                    match self.adaptation_canvas(&c, &s) {
-                        (Some(a), d) => Adaptation::Local(a, d),
-                        (None, _) => unreachable!("local mode"),
-                    }
-                }
-            })
-            .collect()
+                    local(self.adaptation_canvas(&c, spec))
+                })
+                .collect(),
+        }
     }
 
     /// Steps 2–5: the bands' sums (w, wE, wM, wEM, noise) per scale on the half-resolution
