@@ -21,10 +21,14 @@
 //!    as 1/√n, so a pixel needs about n (r²/t² − 1) more samples; each pass gives that, at most
 //!    doubling a pixel's count (so the estimate is re-checked often), at least n/4 to re-opened
 //!    neighbours, and never past `max_spp`.
+//!    Pixel totals land on `allocate::stratified_total`s (powers of two and their 3/4), where
+//!    each half-buffer's Sobol' samples are whole (0,2)-nets.
 //! 4. Stop when the fraction of converged pixels (r ≤ 1) reaches `converged_fraction`, or at the
 //!    average budget (`budget_spp`), the per-pixel cap, or the time budget. With an average
-//!    budget the sampler spends all of it: whenever the target fraction is reached, t is halved
-//!    and refinement continues where the ratio is largest.
+//!    budget B the sampler spends all of it: the perceptual sampler first lifts every pixel
+//!    with any noise to 3/4 of B (`allocate::FLOOR_SHARE`) in one pass, and once the
+//!    converged fraction is reached the rest of the budget is spread evenly
+//!    (`allocate::fill_to_level`): the model has no ranking left to act on.
 //!
 //! # The perceptual threshold
 //! ΔL_T(x) = ΔL_TVI(L_a(x)) · F(x). L_a is recomputed from the current image (a 1°
@@ -412,8 +416,6 @@ struct LoopState {
     film: Film,
     stats: RenderStats,
     passes: Vec<PassReport>,
-    /// Target ratio: 1 until the converged fraction is reached under a budget, then halved.
-    t_level: f32,
     /// Rendering time of the samples not yet reported.
     unreported_render: Duration,
     decision_time: Duration,
@@ -441,7 +443,6 @@ impl LoopState {
             film: Film::new(scene.camera.width, scene.camera.height),
             stats: RenderStats::default(),
             passes: Vec::new(),
-            t_level: 1.0,
             unreported_render: Duration::ZERO,
             decision_time: Duration::ZERO,
         })
@@ -552,18 +553,28 @@ pub fn render_adaptive(
         let ratio = judgement.ratio();
         let converged = st.report(&ratio, progress);
         let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
-        if let Some(reason) = stop_before_pass(s, &mut st, &ratio, converged, remaining, start) {
+        if let Some(reason) = stop_before_pass(s, &st, converged, remaining, start) {
             break (judgement, reason);
         }
-        let mut alloc = allocate(&st.film, &ratio, st.t_level, s.max_spp);
+        let mut alloc = allocate(&st.film, &ratio, 1.0, s.max_spp);
         if let Some(b) = s
             .budget_spp
             .filter(|_| s.sampler == SamplerKind::Perceptual)
         {
-            let floor = (allocate::FLOOR_SHARE * b).floor() as u32;
+            let floor = allocate::stratified_floor(allocate::FLOOR_SHARE * b);
             allocate::raise_to_floor(&mut alloc, &st.film, &ratio, floor, s.max_spp);
         }
         st.clip(&mut alloc);
+        if let Some(rem) = remaining.filter(|_| converged >= s.converged_fraction) {
+            allocate::fill_to_level(
+                &mut alloc,
+                &st.film,
+                &ratio,
+                st.region.clone(),
+                rem,
+                s.max_spp,
+            );
+        }
         if alloc.total() == 0 {
             let reason = if converged >= s.converged_fraction {
                 StopReason::Converged
@@ -681,13 +692,11 @@ fn unjudged(
 }
 
 /// Why the loop stops before allocating another pass, if it does: the time budget, the sample
-/// budget, or convergence without a budget. With a budget, convergence instead halves the
-/// target ratio until fewer than the converged fraction of pixels meet it, so refinement
-/// continues where the ratio is largest.
+/// budget, or convergence without a budget (with one, the rest of the budget is spread evenly:
+/// [`allocate::fill_to_level`]).
 fn stop_before_pass(
     s: &AdaptiveSettings,
-    st: &mut LoopState,
-    ratio: &[f32],
+    st: &LoopState,
     converged: f64,
     remaining: Option<u64>,
     start: Instant,
@@ -699,17 +708,8 @@ fn stop_before_pass(
     if remaining.is_some_and(|r| r == 0 || (r as f64) < 0.002 * n_px) {
         return Some(StopReason::Budget);
     }
-    if converged >= s.converged_fraction {
-        if remaining.is_none() {
-            return Some(StopReason::Converged);
-        }
-        let ratio = &ratio[st.region.clone()];
-        while ratio.par_iter().filter(|&&r| r <= st.t_level).count() as f64 / n_px
-            >= s.converged_fraction
-            && st.t_level > 1e-4
-        {
-            st.t_level *= 0.5;
-        }
+    if converged >= s.converged_fraction && remaining.is_none() {
+        return Some(StopReason::Converged);
     }
     None
 }
