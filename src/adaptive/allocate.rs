@@ -39,16 +39,16 @@ impl Allocation {
     }
 }
 
-/// Pixels with error ratio r above the target `t_level` need about n (r²/t² − 1) more samples
+/// Pixels with error ratio r above 1 (noise at threshold) need about n (r² − 1) more samples
 /// (error falls as 1/√n); each gets that, at most doubling its count, never past `max_spp`;
 /// their 8 neighbours are re-opened with at least n/4. Every count is then rounded up so the
 /// pixel's total is a [`stratified_total`], where its Sobol' samples are stratified. Perceptual
 /// against uniform sampling (both Sobol'), samples saved at equal FLIP p99, without → with
 /// rounding to powers of two: Cornell box 256² at 32/64 spp 0.99×/0.78× → 1.04×/1.10×;
 /// holodeck 240×160 at 64 spp 0.82× → 1.12× (1.25× at 128).
-pub(crate) fn allocate(film: &Film, ratio: &[f32], t_level: f32, max_spp: u32) -> Allocation {
+pub(crate) fn allocate(film: &Film, ratio: &[f32], max_spp: u32) -> Allocation {
     let (w, h) = (film.width as usize, film.height as usize);
-    let active: Vec<bool> = ratio.par_iter().map(|&r| r > t_level).collect();
+    let active: Vec<bool> = ratio.par_iter().map(|&r| r > 1.0).collect();
     let reopen = dilate3(&active, w, h);
     let want = film
         .pixels
@@ -62,7 +62,7 @@ pub(crate) fn allocate(film: &Film, ratio: &[f32], t_level: f32, max_spp: u32) -
             }
             let nf = n as f32;
             let mut c = if act {
-                let q = (r / t_level).min(1e3);
+                let q = r.min(1e3);
                 (nf * (q * q - 1.0)).ceil()
             } else {
                 0.0
@@ -240,31 +240,29 @@ mod tests {
         assert!(a.reopen[0] && !a.reopen[1]);
     }
 
+    fn nothing(n: usize) -> Allocation {
+        Allocation {
+            want: vec![0; n],
+            reopen: vec![false; n],
+        }
+    }
+
     #[test]
     fn converged_pixels_fill_to_a_common_level() {
         let mut film = Film::new(4, 1);
         for (p, n) in film.pixels.iter_mut().zip([96, 96, 192, 96]) {
             p.n = n;
         }
-        let mut a = Allocation {
-            want: vec![0, 0, 0, 0],
-            reopen: vec![false; 4],
-        };
+        let mut a = nothing(4);
         // 100 samples reach 128 for pixels 0 and 3 (64), not 192 (192); pixel 1 has no noise.
         fill_to_level(&mut a, &film, &[0.5, 0.0, 0.9, 0.2], 0..4, 100, 4096);
         assert_eq!(a.want, [32, 0, 0, 32]);
         // Too little for any level: the next one, for fit_to_budget to scale down.
-        let mut b = Allocation {
-            want: vec![0; 4],
-            reopen: vec![false; 4],
-        };
+        let mut b = nothing(4);
         fill_to_level(&mut b, &film, &[0.5, 0.0, 0.9, 0.2], 0..4, 10, 4096);
         assert_eq!(b.want, [32, 0, 0, 32]);
         // Outside the region nothing moves.
-        let mut c = Allocation {
-            want: vec![0; 4],
-            reopen: vec![false; 4],
-        };
+        let mut c = nothing(4);
         fill_to_level(&mut c, &film, &[0.5, 0.0, 0.9, 0.2], 0..2, 1000, 4096);
         assert_eq!(c.want[3], 0);
     }
@@ -296,7 +294,7 @@ mod tests {
             p.n = [8, 16, 32, 8][i % 4];
         }
         let ratio: Vec<f32> = (0..64).map(|i| (i % 7) as f32 * 0.4).collect();
-        let a = allocate(&film, &ratio, 1.0, 4096);
+        let a = allocate(&film, &ratio, 4096);
         let mut grew = 0;
         for (p, &c) in film.pixels.iter().zip(&a.want) {
             if c > 0 {

@@ -16,9 +16,9 @@
 //!    e = |Y(A) − Y(B)| / 2 in scene luminance; the ratio r = e / threshold, averaged over 3×3
 //!    pixels so a single lucky pixel is not called converged, says how far a pixel is from
 //!    converged. (When the first pass spends a sample budget, nothing is judged.)
-//! 3. Pixels with r > t (t = 1: at threshold) get more samples, and so do their 8 neighbours
+//! 3. Pixels with r > 1 (above threshold) get more samples, and so do their 8 neighbours
 //!    (re-opening, as Cycles' box pass does, so thin features are not frozen early). Error falls
-//!    as 1/√n, so a pixel needs about n (r²/t² − 1) more samples; each pass gives that, at most
+//!    as 1/√n, so a pixel needs about n (r² − 1) more samples; each pass gives that, at most
 //!    doubling a pixel's count (so the estimate is re-checked often), at least n/4 to re-opened
 //!    neighbours, and never past `max_spp`.
 //!    Pixel totals land on `allocate::stratified_total`s (powers of two and their 3/4), where
@@ -556,7 +556,7 @@ pub fn render_adaptive(
         if let Some(reason) = stop_before_pass(s, &st, converged, remaining, start) {
             break (judgement, reason);
         }
-        let mut alloc = allocate(&st.film, &ratio, 1.0, s.max_spp);
+        let mut alloc = allocate(&st.film, &ratio, s.max_spp);
         if let Some(b) = s
             .budget_spp
             .filter(|_| s.sampler == SamplerKind::Perceptual)
