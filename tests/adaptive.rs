@@ -544,3 +544,38 @@ fn converged_counts_follow_the_models_own_oracle() {
     );
     assert!(rho > 0.5, "Spearman {rho:.3} over {} pixels", need.len());
 }
+
+#[test]
+fn a_budget_lifts_every_noisy_pixel_to_three_quarters_of_it() {
+    // Under a 128-spp budget every pixel with any noise gets at least the floor, 3/4 of the
+    // budget (96 spp), whatever the model says of it; only pixels with no noise at all (inside
+    // the light, where every sample is the same emitted radiance) stay under it. The
+    // rest of the budget goes unevenly, and all of it is spent.
+    let mut desc =
+        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
+    desc.camera.resolution = [40, 32];
+    let scene = Scene::load_description(desc).unwrap();
+    let s = AdaptiveSettings {
+        budget_spp: Some(128.0),
+        ..AdaptiveSettings::default()
+    };
+    let r = render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap();
+    let mut lifted = 0;
+    for p in &r.film.pixels {
+        if p.n >= 96 {
+            lifted += 1;
+        } else {
+            assert_eq!(
+                p.lum_variance(),
+                0.0,
+                "a noisy pixel left under the floor at {} spp",
+                p.n
+            );
+        }
+    }
+    // (The black frame around the box, where rays leave the scene, has no noise either.)
+    assert!(lifted > r.film.len() / 2, "{lifted} pixels lifted");
+    let hi = *r.film.spp().iter().max().unwrap();
+    assert!(hi > 128, "no pixel got more than the budget: max {hi}");
+    assert!((r.mean_spp() - 128.0).abs() < 0.5, "{}", r.mean_spp());
+}
