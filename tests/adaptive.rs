@@ -41,6 +41,14 @@ fn split_plane(
     Scene::load(&dir.join("scene.toml")).unwrap()
 }
 
+/// The bundled Cornell box at `w × h`.
+fn cornell_box(w: u32, h: u32) -> Scene {
+    let mut desc =
+        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
+    desc.camera.resolution = [w, h];
+    Scene::load_description(desc).unwrap()
+}
+
 /// Mean samples per pixel over columns [x0, x1) (all rows).
 fn mean_spp(film: &aleph::film::Film, x0: u32, x1: u32) -> f64 {
     let mut s = 0u64;
@@ -296,10 +304,7 @@ fn saliency_sends_more_samples_to_the_salient_object() {
 
 #[test]
 fn uniform_with_a_budget_equals_a_plain_render_bit_for_bit() {
-    let mut desc =
-        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
-    desc.camera.resolution = [24, 24];
-    let scene = Scene::load_description(desc).unwrap();
+    let scene = cornell_box(24, 24);
     for n in [1u32, 5, 16] {
         let s = AdaptiveSettings {
             sampler: SamplerKind::Uniform,
@@ -314,10 +319,7 @@ fn uniform_with_a_budget_equals_a_plain_render_bit_for_bit() {
 
 #[test]
 fn adaptive_renders_are_identical_for_one_and_two_threads() {
-    let mut desc =
-        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
-    desc.camera.resolution = [40, 32];
-    let scene = Scene::load_description(desc).unwrap();
+    let scene = cornell_box(40, 32);
     for sampler in [SamplerKind::Perceptual, SamplerKind::Variance] {
         let s = AdaptiveSettings {
             sampler,
@@ -402,10 +404,7 @@ fn speedup_runs_end_to_end_on_a_tiny_scene() {
 
 #[test]
 fn settings_out_of_range_are_refused_not_clamped() {
-    let mut desc =
-        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
-    desc.camera.resolution = [8, 8];
-    let scene = Scene::load_description(desc).unwrap();
+    let scene = cornell_box(8, 8);
     for (s, words) in [
         (
             AdaptiveSettings {
@@ -448,10 +447,7 @@ fn settings_out_of_range_are_refused_not_clamped() {
 fn budgets_under_steer_from_are_the_uniform_render_bit_for_bit() {
     // Below `steer_from_spp` both adaptive samplers render the budget uniformly in one pass:
     // the uniform sampler's image exactly, no guide, nothing judged. At it, they steer.
-    let mut desc =
-        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
-    desc.camera.resolution = [24, 24];
-    let scene = Scene::load_description(desc).unwrap();
+    let scene = cornell_box(24, 24);
     let run = |sampler, budget: f64, steer_from_spp| {
         let s = AdaptiveSettings {
             sampler,
@@ -493,10 +489,7 @@ fn budgets_under_steer_from_are_the_uniform_render_bit_for_bit() {
 #[test]
 fn a_spent_time_budget_stops_before_another_pass() {
     // A budget far below the first pass: the loop judges once and stops, by time.
-    let mut desc =
-        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
-    desc.camera.resolution = [32, 32];
-    let scene = Scene::load_description(desc).unwrap();
+    let scene = cornell_box(32, 32);
     let s = AdaptiveSettings {
         time_budget: Some(std::time::Duration::from_micros(1)),
         ..Default::default()
@@ -551,10 +544,7 @@ fn a_budget_lifts_every_noisy_pixel_to_three_quarters_of_it() {
     // budget (96 spp), whatever the model says of it; only pixels with no noise at all (inside
     // the light, where every sample is the same emitted radiance) stay under it. The
     // rest of the budget goes unevenly, and all of it is spent.
-    let mut desc =
-        aleph::scene::SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
-    desc.camera.resolution = [40, 32];
-    let scene = Scene::load_description(desc).unwrap();
+    let scene = cornell_box(40, 32);
     let s = AdaptiveSettings {
         budget_spp: Some(128.0),
         ..AdaptiveSettings::default()
