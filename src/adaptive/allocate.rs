@@ -93,11 +93,7 @@ pub(crate) fn stratified_total(n: u32) -> u32 {
 /// The largest [`stratified_total`] ≤ `x` (at least 1).
 pub(crate) fn stratified_floor(x: f64) -> u32 {
     let x = x.clamp(1.0, (1u64 << 31) as f64) as u32;
-    let p = if x.is_power_of_two() {
-        x
-    } else {
-        x.next_power_of_two() / 2
-    };
+    let p = 1u32 << x.ilog2();
     let up = p * 3 / 2;
     if p >= 4 && up <= x { up } else { p }
 }
