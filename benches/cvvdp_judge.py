@@ -10,6 +10,10 @@ reference):
   it can credit noise that moving content hides, which FLIP cannot);
 - a still (`DIR/ARM-Bspp.png` against `DIR/reference.png`): one image score each.
 
+With `aleph speedup --stop`, the perceptual sampler's own stop (`DIR/perceptual-stop.png`, or
+`DIR/frames/perceptual-stop/`) is scored too, with the uniform spp and wall time that reach its
+JOD.
+
 Then, for each uniform budget's JOD, the samples each other sampler needs for that JOD (log-log
 interpolation of spp against 10 − JOD, as `aleph speedup` does for FLIP), and the speedups.
 Writes `DIR/cvvdp.md` and `DIR/cvvdp.csv`.
@@ -56,13 +60,15 @@ def arms_in(frames_dir):
     return out
 
 
-def spp_used(directory):
-    """(arm, budget) -> mean spp actually used, from speedup.csv."""
+def spp_used(directory, table="speedup.csv"):
+    """(arm, budget) -> (mean spp actually used, wall s), from `table` (speedup.csv)."""
     used = {}
-    path = os.path.join(directory, "speedup.csv")
+    path = os.path.join(directory, table)
     if not os.path.exists(path):
         # A graded subdirectory (DIR/ev-2, DIR/ev+2) shares its parent's table.
-        path = os.path.join(directory, os.pardir, "speedup.csv")
+        path = os.path.join(directory, os.pardir, table)
+    if not os.path.exists(path):
+        return used
     with open(path) as f:
         for row in csv.DictReader(f):
             used[(row["sampler"], float(row["budget_spp"]))] = (
@@ -114,6 +120,12 @@ def main():
         reference = load_stack([os.path.join(args.dir, "reference.png")])
 
     used = spp_used(args.dir)
+    stop_paths = []
+    if sequence and os.path.isdir(os.path.join(frames_dir, "perceptual-stop")):
+        d = os.path.join(frames_dir, "perceptual-stop")
+        stop_paths = sorted(os.path.join(d, f) for f in os.listdir(d) if f.endswith(".png"))
+    elif os.path.exists(os.path.join(args.dir, "perceptual-stop.png")):
+        stop_paths = [os.path.join(args.dir, "perceptual-stop.png")]
     jod = {}
     for key, paths in sorted(renders.items()):
         test = load_stack(paths)
@@ -159,6 +171,26 @@ def main():
             row += f" {s:.1f} | {x / s:.2f}× |" if s else " — | — |"
             row += f" {ut / t:.2f}× |" if (t and ut) else " — |"
         lines.append(row)
+    if stop_paths:
+        test = load_stack(stop_paths)
+        if sequence:
+            q, _ = metric.predict(test, reference, dim_order="FHWC", frames_per_second=args.fps)
+        else:
+            q, _ = metric.predict(test[0], reference[0], dim_order="HWC")
+        q = float(q)
+        spp, wall = spp_used(args.dir, "stop.csv").get(("perceptual", 0.0), (None, None))
+        us, ut = samples_for(uni, q), samples_for(uni_t, q)
+        fmt = lambda v, p: f"{v:.{p}f}" if v is not None else "—"
+        lines += [
+            "",
+            "## The default stop",
+            "",
+            f"The perceptual sampler's own stop: JOD {q:.3f} at {fmt(spp, 1)} spp in {fmt(wall, 2)} s. "
+            f"Uniform reaches that JOD at {fmt(us, 0)} spp in {fmt(ut, 2)} s"
+            + (f": the stop takes {spp / us:.2f}× its samples and {wall / ut:.2f}× its time."
+               if None not in (spp, us, wall, ut) else " (outside the sweep's budgets: —)."),
+        ]
+        print(f"{'perceptual-stop':>22}: JOD {q:.3f}", flush=True)
     with open(os.path.join(args.dir, "cvvdp.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))

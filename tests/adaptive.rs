@@ -403,6 +403,60 @@ fn speedup_runs_end_to_end_on_a_tiny_scene() {
 }
 
 #[test]
+fn speedup_judges_the_renders_own_stop_as_aleph_render_runs_it() {
+    let d = tempdir();
+    let out = d.path().join("sp");
+    let scene = repo("scenes/cornell-box/scene.toml");
+    let common = ["--resolution", "24x24", "--min-spp", "2", "--max-spp", "64"];
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args([
+            "speedup",
+            "--budgets",
+            "2,8,64",
+            "--reference-spp",
+            "64",
+            "--stop",
+        ])
+        .args(common)
+        .arg("-o")
+        .arg(&out)
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.contains("## The default stop"), "{table}");
+    let csv = std::fs::read_to_string(out.join("stop.csv")).unwrap();
+    let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    assert_eq!((row[0], row[1]), ("perceptual", "0"), "{csv}");
+    let stop_spp: f64 = row[2].parse().unwrap();
+    for sub in [out.clone(), out.join("ev-2"), out.join("ev+2")] {
+        assert!(sub.join("perceptual-stop.png").exists());
+    }
+    // The same render as `aleph render` with the same seed and settings, to the last sample.
+    let r = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(["render", "--seed", "0"])
+        .args(common)
+        .arg("-o")
+        .arg(d.path().join("r"))
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let summary = String::from_utf8_lossy(&r.stdout);
+    let mean = summary
+        .split(" spp mean")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|v| v.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no mean spp in {summary}"));
+    assert!(
+        (mean - stop_spp).abs() < 0.05 && stop_spp > 2.0,
+        "render {mean} spp, speedup's stop {stop_spp} spp"
+    );
+}
+
+#[test]
 fn settings_out_of_range_are_refused_not_clamped() {
     let scene = cornell_box(8, 8);
     for (s, words) in [

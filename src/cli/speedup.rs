@@ -47,6 +47,11 @@ pub struct SpeedupArgs {
     /// frame gets its own reference and sweep; the sequence's speedup is at equal mean score.
     #[arg(long, value_name = "A-B", value_parser = super::render::parse_frames)]
     frames: Option<(i64, i64)>,
+    /// Also render the perceptual sampler's own stop (no budget, as `aleph render` runs by
+    /// default) and report the uniform spp and wall time that reach each of its scores. Put
+    /// budgets in the sweep that bracket the stop's scores (up to 1024 spp or more).
+    #[arg(long)]
+    stop: bool,
     #[command(flatten)]
     sampling: SamplingArgs,
     #[command(flatten)]
@@ -91,6 +96,7 @@ fn run_sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::
         seed: args.seed,
         frames: args.frames,
         operator: args.tonemap.map(Operator::from),
+        stop: args.stop,
     };
     // Every sampler setting but the sampler, budget and display; the luminance scale is the
     // scene's (set by the sweep).
@@ -104,6 +110,12 @@ fn run_sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::
     print!("{report}");
     let mut out = AtomicOutputs::new();
     out.stage_bytes(&dir.join("speedup.csv"), csv(&result.rows).as_bytes())?;
+    if let Some(stop) = &result.stop {
+        out.stage_bytes(
+            &dir.join("stop.csv"),
+            csv(std::slice::from_ref(stop)).as_bytes(),
+        )?;
+    }
     if result.frames > 0 {
         out.stage_bytes(&dir.join("frames.csv"), result.per_frame_csv.as_bytes())?;
     }
@@ -299,6 +311,9 @@ fn report(sw: &Sweep, args: &SpeedupArgs, scene: &str) -> String {
             let _ = writeln!(s, "| {} | {rank} |", o.budget);
         }
     }
+    if let Some(stop) = &sw.stop {
+        stop_report(&mut s, rows, stop);
+    }
     let perc: Vec<&Row> = rows
         .iter()
         .filter(|r| r.sampler == Arm::Perceptual)
@@ -314,6 +329,48 @@ fn report(sw: &Sweep, args: &SpeedupArgs, scene: &str) -> String {
         100.0 * dec / total.max(1e-9)
     );
     s
+}
+
+/// The section on the perceptual sampler's own stop: for each score, the uniform spp and wall
+/// time that reach it (log-log interpolation over the sweep's uniform renders).
+fn stop_report(s: &mut String, rows: &[Row], stop: &Row) {
+    let _ = writeln!(
+        s,
+        "\n## The default stop\n\nThe perceptual sampler without a budget (`aleph render`'s default: until the converged fraction of pixels is below threshold): {:.1} spp mean, {:.2} s wall time ({:.3} s of it in the perception model). For each of its scores, the uniform render that reaches it (spp and wall time interpolated over the uniform renders above; — where the stop is better than the sweep's largest budget or worse than its smallest):\n\n| score | the stop | uniform spp | uniform s | stop's time ÷ uniform's |\n|---|---|---|---|---|",
+        stop.mean_spp, stop.wall_s, stop.decision_s
+    );
+    let mut worst: Option<(f64, f64)> = Some((0.0, 0.0));
+    for (label, read) in METRICS {
+        let metric = |r: &Row| read(&r.scores);
+        let target = read(&stop.scores);
+        let spp = samples_for(&curve(rows, Arm::Uniform, |r| r.mean_spp, metric), target);
+        let time = samples_for(&curve(rows, Arm::Uniform, |r| r.wall_s, metric), target);
+        worst = match (worst, spp, time) {
+            (Some((ws, wt)), Some(a), Some(b)) => Some((ws.max(a), wt.max(b))),
+            _ => None,
+        };
+        let f = |v: Option<f64>, p: usize| v.map(|x| format!("{x:.p$}")).unwrap_or("—".into());
+        let ratio = time.map(|t| format!("{:.2}×", stop.wall_s / t));
+        let _ = writeln!(
+            s,
+            "| {label} | {target:.4} | {} | {} | {} |",
+            f(spp, 0),
+            f(time, 2),
+            ratio.unwrap_or("—".into())
+        );
+    }
+    let _ = match worst {
+        Some((spp, t)) => writeln!(
+            s,
+            "\nA uniform render that reaches every one of these scores needs {spp:.0} spp and {t:.2} s: the stop takes {:.2}× its samples and {:.2}× its time.",
+            stop.mean_spp / spp.max(1e-9),
+            stop.wall_s / t.max(1e-9)
+        ),
+        None => writeln!(
+            s,
+            "\nAt least one score lies outside the uniform renders' range: widen `--budgets`."
+        ),
+    };
 }
 
 type Series = (Arm, RGBColor);

@@ -338,7 +338,14 @@ pub struct SweepSpec {
     /// Tone operator of the judged display (`None`: Reinhard for a still, PTYG with the
     /// carried adaptation state for a sequence).
     pub operator: Option<Operator>,
+    /// Also render and judge the perceptual sampler's own stop (no budget: `aleph render`'s
+    /// default, until the converged fraction of pixels is below threshold), written as
+    /// [`STOP_IMAGE`].
+    pub stop: bool,
 }
+
+/// Name of the stop's display image ([`image_path`]), beside the budgets' `ARM-Bspp`.
+pub const STOP_IMAGE: &str = "perceptual-stop";
 
 /// The result of a sweep: one row per arm and budget (means over frames for a sequence).
 pub struct Sweep {
@@ -353,6 +360,8 @@ pub struct Sweep {
     pub oracle: Vec<OracleRow>,
     /// Per-frame rows as CSV (header included).
     pub per_frame_csv: String,
+    /// The perceptual sampler's own stop (budget 0), when [`SweepSpec::stop`] asked for it.
+    pub stop: Option<Row>,
     /// Number of frames (0 for a still).
     pub frames: usize,
     /// The operator of the judged display.
@@ -417,6 +426,8 @@ struct SweepState {
     uniform_maps: Vec<(f64, Vec<f32>)>,
     /// The perceptual sampler's samples per pixel at each budget (first frame).
     perceptual_counts: Vec<(f64, Vec<f32>)>,
+    /// The perceptual sampler's own stop, summed over frames.
+    stop: Acc,
     view: ViewingConditions,
 }
 
@@ -471,6 +482,7 @@ pub fn sweep(
         per_frame: format!("{}\n", frames_csv_header()),
         uniform_maps: Vec::new(),
         perceptual_counts: Vec::new(),
+        stop: Acc::default(),
         view: base.tone.view,
     };
     for (k, &frame) in frames.iter().enumerate() {
@@ -530,6 +542,7 @@ pub fn sweep(
         floor: st.floor.row(Arm::Uniform, 0.0).scores,
         ceilings,
         oracle,
+        stop: spec.stop.then(|| st.stop.row(Arm::Perceptual, 0.0)),
         per_frame_csv: st.per_frame,
         frames: frames.iter().flatten().count(),
         operator,
@@ -601,7 +614,58 @@ struct FrameCtx<'a> {
     dir: &'a Path,
 }
 
-/// Judges every arm at every budget on one frame, accumulating into `st`.
+/// Renders one arm with `settings`, judges it and logs its row; returns the row (`budget` 0
+/// for the stop) and the image's mean RGB. The first frame's uniform FLIP maps and
+/// perceptual sample counts are kept in `st` for the oracle.
+fn judged_render(
+    ctx: &FrameCtx,
+    judge: &Judge,
+    settings: &AdaptiveSettings,
+    arm: Arm,
+    budget: f64,
+    st: &mut SweepState,
+    log: &dyn Fn(&str),
+) -> Result<(Row, Vec<f32>), SpeedupError> {
+    let n_px = (ctx.scene.camera.width * ctx.scene.camera.height) as f64;
+    let t = Instant::now();
+    let r = render_adaptive(ctx.scene, settings, &|_| {}, &|_| {})?;
+    let wall = t.elapsed().as_secs_f64();
+    let rgb = r.film.mean_rgb();
+    let (scores, fmap) = judge.score_with_map(&rgb)?;
+    let budgeted = settings.budget_spp.is_some();
+    if arm == Arm::Uniform && ctx.first {
+        st.uniform_maps.push((budget, fmap));
+    }
+    if arm == Arm::Perceptual && ctx.first && budgeted {
+        let counts = r.film.pixels.iter().map(|p| p.n as f32).collect();
+        st.perceptual_counts.push((budget, counts));
+    }
+    let row = Row {
+        sampler: arm,
+        budget,
+        mean_spp: r.mean_spp(),
+        guide_spp: r
+            .guide_stats
+            .map(|g| g.samples as f64 / n_px)
+            .unwrap_or(0.0),
+        wall_s: wall,
+        decision_s: r.decision_time.as_secs_f64(),
+        scores,
+    };
+    let label = ctx.frame.map(|f| format!("frame {f} ")).unwrap_or_default();
+    let stop = if budgeted { "" } else { " (its own stop)" };
+    log(&format!("{label}{}{stop}", row.summary()));
+    let _ = writeln!(
+        st.per_frame,
+        "{},{}",
+        ctx.frame.unwrap_or(0),
+        row.csv_fields()
+    );
+    Ok((row, rgb))
+}
+
+/// Judges every arm at every budget on one frame (and the perceptual sampler's own stop, if
+/// asked), accumulating into `st`.
 fn sweep_frame(
     ctx: &FrameCtx,
     reference: &Reference,
@@ -660,41 +724,22 @@ fn sweep_frame(
                 use_velocity: arm != Arm::PerceptualNoVelocity,
                 ..base.clone()
             };
-            let t = Instant::now();
-            let r = render_adaptive(ctx.scene, &settings, &|_| {}, &|_| {})?;
-            let wall = t.elapsed().as_secs_f64();
-            let rgb = r.film.mean_rgb();
-            let (scores, fmap) = judge.score_with_map(&rgb)?;
-            if arm == Arm::Uniform && ctx.first {
-                st.uniform_maps.push((budget, fmap));
-            }
-            if arm == Arm::Perceptual && ctx.first {
-                let counts = r.film.pixels.iter().map(|p| p.n as f32).collect();
-                st.perceptual_counts.push((budget, counts));
-            }
-            let row = Row {
-                sampler: arm,
-                budget,
-                mean_spp: r.mean_spp(),
-                guide_spp: r
-                    .guide_stats
-                    .map(|g| g.samples as f64 / (w * h) as f64)
-                    .unwrap_or(0.0),
-                wall_s: wall,
-                decision_s: r.decision_time.as_secs_f64(),
-                scores,
-            };
-            let label = ctx.frame.map(|f| format!("frame {f} ")).unwrap_or_default();
-            log(&format!("{label}{}", row.summary()));
-            let _ = writeln!(
-                st.per_frame,
-                "{},{}",
-                ctx.frame.unwrap_or(0),
-                row.csv_fields()
-            );
+            let (row, rgb) = judged_render(ctx, &judge, &settings, arm, budget, st, log)?;
             stage_png(&mut images, &format!("{}-{}spp", arm.name(), budget), &rgb)?;
             st.acc[bi * ctx.arms.len() + ai].add(&row);
         }
+    }
+    if spec.stop {
+        // `aleph render`'s own stop: no budget, until the converged fraction (or a cap).
+        let settings = AdaptiveSettings {
+            sampler: SamplerKind::Perceptual,
+            budget_spp: None,
+            tone: ctx.tone,
+            ..base.clone()
+        };
+        let (row, rgb) = judged_render(ctx, &judge, &settings, Arm::Perceptual, 0.0, st, log)?;
+        stage_png(&mut images, STOP_IMAGE, &rgb)?;
+        st.stop.add(&row);
     }
     images.commit()?;
     Ok(())
