@@ -230,6 +230,58 @@ fn report(sw: &Sweep, args: &SpeedupArgs, scene: &str) -> String {
             b.p99
         );
     }
+    equal_score_tables(&mut s, rows, frames);
+    if !ceilings.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## Ceiling\n\nThe best any allocation could do with perfect knowledge of each pixel's FLIP error (per-pixel fits a·n^−β to the uniform renders, β = {:.3}):\n",
+            ceilings[0].1.beta
+        );
+        let _ = writeln!(
+            s,
+            "| budget spp | ceiling speedup, FLIP mean | ceiling speedup, FLIP p99 |"
+        );
+        let _ = writeln!(s, "|---|---|---|");
+        for (b, c) in ceilings {
+            let _ = writeln!(s, "| {b} | {:.2}× | {:.2}× |", c.mean, c.p99);
+        }
+    }
+    if !sw.oracle.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## Against the oracle\n\nSpearman rank correlation of the perceptual sampler's samples per pixel with the oracle's allocation at the displayed exposure (from the same per-pixel fits: n_i ∝ a_i^(1/(1+β)) for FLIP mean, a_i^(1/β) for FLIP p99, one ranking); maps side by side in `oracle/Bspp.png` (oracle for the mean, for p99, aleph's; log scale from budget/8 to 8 × budget):\n\n| budget spp | rank correlation with the oracle |\n|---|---|"
+        );
+        for o in &sw.oracle {
+            let rank = match o.rank {
+                Some(r) => format!("{r:.3}"),
+                None => "— (every pixel the same count: rendered uniformly)".into(),
+            };
+            let _ = writeln!(s, "| {} | {rank} |", o.budget);
+        }
+    }
+    if let Some(stop) = &sw.stop {
+        stop_report(&mut s, rows, stop);
+    }
+    let perc: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.sampler == Arm::Perceptual)
+        .collect();
+    let total: f64 = perc.iter().map(|r| r.wall_s).sum();
+    let dec: f64 = perc.iter().map(|r| r.decision_s).sum();
+    let guide = perc.iter().map(|r| r.guide_spp).fold(0.0, f64::max);
+    let _ = writeln!(
+        s,
+        "\nPerception overhead of the perceptual sampler: {:.3} s of {:.2} s wall time over the sweep ({:.1} %), plus a {guide:.0}-spp albedo guide per render.",
+        dec,
+        total,
+        100.0 * dec / total.max(1e-9)
+    );
+    s
+}
+
+/// One table per score of [`METRICS`]: the spp and wall time each arm needs for the uniform
+/// sampler's scores, and the speedups.
+fn equal_score_tables(s: &mut String, rows: &[Row], frames: usize) {
     for (label, read) in METRICS {
         let metric = |r: &Row| read(&r.scores);
         let _ = writeln!(s, "\n## Equal {label}\n");
@@ -283,52 +335,6 @@ fn report(sw: &Sweep, args: &SpeedupArgs, scene: &str) -> String {
             );
         }
     }
-    if !ceilings.is_empty() {
-        let _ = writeln!(
-            s,
-            "\n## Ceiling\n\nThe best any allocation could do with perfect knowledge of each pixel's FLIP error (per-pixel fits a·n^−β to the uniform renders, β = {:.3}):\n",
-            ceilings[0].1.beta
-        );
-        let _ = writeln!(
-            s,
-            "| budget spp | ceiling speedup, FLIP mean | ceiling speedup, FLIP p99 |"
-        );
-        let _ = writeln!(s, "|---|---|---|");
-        for (b, c) in ceilings {
-            let _ = writeln!(s, "| {b} | {:.2}× | {:.2}× |", c.mean, c.p99);
-        }
-    }
-    if !sw.oracle.is_empty() {
-        let _ = writeln!(
-            s,
-            "\n## Against the oracle\n\nSpearman rank correlation of the perceptual sampler's samples per pixel with the oracle's allocation at the displayed exposure (from the same per-pixel fits: n_i ∝ a_i^(1/(1+β)) for FLIP mean, a_i^(1/β) for FLIP p99, one ranking); maps side by side in `oracle/Bspp.png` (oracle for the mean, for p99, aleph's; log scale from budget/8 to 8 × budget):\n\n| budget spp | rank correlation with the oracle |\n|---|---|"
-        );
-        for o in &sw.oracle {
-            let rank = match o.rank {
-                Some(r) => format!("{r:.3}"),
-                None => "— (every pixel the same count: rendered uniformly)".into(),
-            };
-            let _ = writeln!(s, "| {} | {rank} |", o.budget);
-        }
-    }
-    if let Some(stop) = &sw.stop {
-        stop_report(&mut s, rows, stop);
-    }
-    let perc: Vec<&Row> = rows
-        .iter()
-        .filter(|r| r.sampler == Arm::Perceptual)
-        .collect();
-    let total: f64 = perc.iter().map(|r| r.wall_s).sum();
-    let dec: f64 = perc.iter().map(|r| r.decision_s).sum();
-    let guide = perc.iter().map(|r| r.guide_spp).fold(0.0, f64::max);
-    let _ = writeln!(
-        s,
-        "\nPerception overhead of the perceptual sampler: {:.3} s of {:.2} s wall time over the sweep ({:.1} %), plus a {guide:.0}-spp albedo guide per render.",
-        dec,
-        total,
-        100.0 * dec / total.max(1e-9)
-    );
-    s
 }
 
 /// The section on the perceptual sampler's own stop: for each score, the uniform spp and wall
