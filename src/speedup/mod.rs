@@ -18,8 +18,8 @@
 mod sweep;
 
 pub use sweep::{
-    Arm, OracleRow, Row, SpeedupError, Sweep, SweepSpec, frame_key, frame_list, frames_csv_header,
-    grade_dir, image_path, reference_key, sweep,
+    Arm, OracleRow, Row, STOP_IMAGE, SpeedupError, Sweep, SweepSpec, frame_key, frame_list,
+    frames_csv_header, grade_dir, image_path, reference_key, sweep,
 };
 
 use crate::display::FrozenToneMap;
