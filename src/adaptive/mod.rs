@@ -400,7 +400,8 @@ pub struct AdaptiveResult {
     pub error: Option<Vec<f32>>,
     /// Units of `threshold` and `error`.
     pub units: &'static str,
-    /// Time spent in the perception model (and the variance criterion), excluding rendering.
+    /// Time spent deciding: the perception model (its setup and every judgement) or the
+    /// variance criterion, excluding rendering (the guide render is in `guide_stats`).
     pub decision_time: Duration,
     /// Total wall time, guide and decisions included.
     pub wall: Duration,
@@ -535,6 +536,8 @@ pub fn render_adaptive(
     if budget_total.is_some_and(|b| st.region_samples() as f64 >= b as f64 - 0.002 * n_px as f64) {
         return Ok(unjudged(st, s, progress, velocity, start));
     }
+    // The threshold mapper's setup (filters, FFT plans) is a decision cost too.
+    let t_setup = Instant::now();
     let mut criterion = match s.sampler {
         SamplerKind::Perceptual => {
             let motion = velocity
@@ -545,6 +548,7 @@ pub fn render_adaptive(
         }
         _ => Criterion::Variance(VarianceCriterion::new(&st.film, s.variance_threshold)),
     };
+    st.decision_time += t_setup.elapsed();
     let mut rate = st.stats.samples as f64 / st.stats.wall.as_secs_f64().max(1e-9);
     let mut cost = JudgeCost::default();
     let (judgement, stop) = loop {
