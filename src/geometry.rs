@@ -10,7 +10,7 @@
 //! because the transformed direction is not renormalised.
 
 use crate::animation::TransformTrack;
-use crate::bvh::Bvh4;
+use crate::bvh::Bvh;
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
 use std::time::Duration;
 
@@ -85,7 +85,7 @@ pub struct Hit {
 pub struct Instance {
     /// Rest space → world space over time.
     pub track: TransformTrack,
-    blas: Bvh4,
+    blas: Bvh,
     bounds_min: Vec3A,
     bounds_max: Vec3A,
 }
@@ -153,7 +153,7 @@ fn motion_bounds(track: &TransformTrack, lo: Vec3, hi: Vec3, t0: f32, t1: f32) -
 /// All triangles of a scene with their BVHs.
 pub struct Geometry {
     /// The static triangles' BVH (world space), if there are any.
-    stat: Option<Bvh4>,
+    stat: Option<Bvh>,
     /// Moving meshes.
     instances: Vec<Instance>,
     /// Attributes by triangle id.
@@ -251,7 +251,7 @@ impl Geometry {
             }
         }
         let stat =
-            (!static_ids.is_empty()).then(|| Bvh4::build(&static_ids, |i| tris[i as usize].p));
+            (!static_ids.is_empty()).then(|| Bvh::build(&static_ids, |i| tris[i as usize].p));
         let instances = tracks
             .into_iter()
             .zip(ids)
@@ -267,7 +267,7 @@ impl Geometry {
                 let (bounds_min, bounds_max) =
                     motion_bounds(&track, lo, hi, time_range.0, time_range.1);
                 Instance {
-                    blas: Bvh4::build(&ids, |i| tris[i as usize].p),
+                    blas: Bvh::build(&ids, |i| tris[i as usize].p),
                     track,
                     bounds_min,
                     bounds_max,

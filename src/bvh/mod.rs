@@ -1,33 +1,44 @@
-//! The ray-tracing acceleration structure: a four-wide BVH with uncompressed single-precision
-//! boxes and triangles tested four at a time, traversed one ray at a time with every node and
-//! leaf test in 4-lane SIMD (glam's `Vec4`: SSE on x86-64, NEON on AArch64). This is the layout
-//! of Embree's BVH4 with `Triangle4` leaves (Wald et al. 2014, "Embree: A Kernel Framework for
-//! Efficient CPU Ray Tracing", §4), built by collapsing obvhs' binary PLOC BVH (Meister &
-//! Bittner 2018, with reinsertion optimisation) instead of its compressed eight-wide CWBVH:
-//! the CWBVH's quantised child boxes (Ylitie et al. 2017) are made for GPUs, and decoding them
-//! costs more on the CPU than their smaller footprint saves. Measured against the CWBVH
-//! (whole processes, 256², 8 spp, medians of paired runs): 0.76× the CPU time on Lost Empire,
-//! 0.85× on the holodeck, 0.88× on the Mori knob, 1.00× on the Cornell box (36 triangles:
-//! traversal there is a node or two); on a 1M-triangle heightfield, load and build in 0.92× the
-//! time and 470 MiB peak instead of 570.
+//! The ray-tracing acceleration structure: a BVH with uncompressed single-precision boxes and
+//! triangles tested a pack at a time, traversed one ray at a time with every node and leaf test
+//! in SIMD: eight-wide nodes and packs in AVX2 where the CPU has it, else four-wide in glam's
+//! `Vec4` (SSE on x86-64, NEON on AArch64), chosen at run time ([`Bvh::build`]). This is the
+//! layout of Embree's BVH4/BVH8 with `Triangle4`/`Triangle8`-style leaves (Wald et al. 2014,
+//! "Embree: A Kernel Framework for Efficient CPU Ray Tracing", §4), built by collapsing obvhs'
+//! binary PLOC BVH (Meister & Bittner 2018, with reinsertion optimisation) instead of its
+//! compressed eight-wide CWBVH: the CWBVH's quantised child boxes (Ylitie et al. 2017) are made
+//! for GPUs, and decoding them costs more on the CPU than their smaller footprint saves.
+//! Measured against the CWBVH (whole processes, 256², 8 spp, medians of paired runs), the
+//! four-wide tree took 0.76× the CPU time on Lost Empire, 0.85× on the holodeck, 0.88× on the
+//! Mori knob, 1.00× on the Cornell box; on a 1M-triangle heightfield, load and build in 0.92×
+//! the time and 470 MiB peak instead of 570. The eight-wide AVX2 tree with leaves of up to 16
+//! triangles against that four-wide one with leaves of 4 (one thread, medians of paired whole
+//! processes, 256²): 0.93–0.95× the CPU time on the Cornell box (0.91× the instructions),
+//! 0.99× on Lost Empire, 0.93× on the Mori knob, 1.02× on the holodeck (within this machine's
+//! noise of ±5 %); the Cornell box renders bit-identically.
 //!
-//! Each inner node holds the boxes of up to four children as structure-of-arrays rows
-//! (`lo[axis]`, `hi[axis]`, one lane per child). A leaf is up to [`LEAF_PACKS`] packs of four
+//! Each inner node holds the boxes of up to N children as structure-of-arrays rows
+//! (`lo[axis]`, `hi[axis]`, one lane per child). A leaf is up to [`LEAF_PACKS_MAX`] packs of N
 //! triangles, each pack the rows of Baldwin & Weber's precomputed transformations
 //! ([`IsectTri`]) as lanes; empty lanes are all-zero rows, which never report a hit.
 //! Slab tests follow Williams et al. 2005 with the far distance scaled by 1 + 2γ₃ (Ize 2013,
 //! "Robust BVH Ray Traversal", JCGT 2(2)), so a ray grazing a flat box (an axis-aligned wall)
 //! is never lost to rounding.
 
+mod lanes;
+
 use glam::{Vec3, Vec3A, Vec4};
+#[cfg(target_arch = "x86_64")]
+use lanes::F8;
+use lanes::Lanes;
 use obvhs::triangle::Triangle as BvhTriangle;
 use std::mem::MaybeUninit;
 use std::time::Duration;
 
-/// Largest number of four-triangle packs in a leaf.
-const LEAF_PACKS: u32 = 2;
-/// Triangles per leaf asked of the builder.
-const LEAF_TRIANGLES: u32 = 4;
+/// Triangle packs per leaf asked of the builder (leaves of up to `LEAF_PACKS_ASKED · N`
+/// triangles).
+const LEAF_PACKS_ASKED: u32 = 2;
+/// Largest number of packs in a leaf (the slot's 3-bit count).
+const LEAF_PACKS_MAX: usize = 8;
 /// Child slot marker: the child is a leaf (`LEAF | packs − 1 << 28 | first pack`).
 const LEAF: u32 = 1 << 31;
 /// An unused child slot.
@@ -101,66 +112,79 @@ impl IsectTri {
     }
 }
 
-/// Four triangles' transformations as lanes: `m[row][column]` holds column (x, y, z, constant)
-/// of row 0, 1 or 2 for each of the four triangles; `ids` are the triangle ids (`EMPTY` for an
+/// [`Lanes::N`] triangles' transformations as lanes: `m[row][column]` holds column (x, y, z,
+/// constant) of row 0, 1 or 2 for each triangle; `ids` are the triangle ids (`EMPTY` for an
 /// unused lane, whose rows are zero).
 #[derive(Clone, Copy)]
-struct Tri4 {
-    m: [[Vec4; 4]; 3],
-    ids: [u32; 4],
+struct TriPack<L: Lanes> {
+    m: [[L; 4]; 3],
+    ids: L::Ids,
 }
 
-impl Tri4 {
-    fn new(tris: &[(u32, IsectTri)]) -> Tri4 {
-        let mut m = [[Vec4::ZERO; 4]; 3];
-        let mut ids = [EMPTY; 4];
+impl<L: Lanes> TriPack<L> {
+    fn new(tris: &[(u32, IsectTri)]) -> TriPack<L> {
+        let mut m = [[[0f32; 8]; 4]; 3];
+        let mut ids = L::ids(EMPTY);
         for (lane, (id, t)) in tris.iter().enumerate() {
-            ids[lane] = *id;
+            ids.as_mut()[lane] = *id;
             for (rows, r) in m.iter_mut().zip(&t.r) {
                 for (col, v) in rows.iter_mut().zip(r.to_array()) {
                     col[lane] = v;
                 }
             }
         }
-        Tri4 { m, ids }
+        TriPack {
+            m: m.map(|row| row.map(|col| L::from_slice(&col))),
+            ids,
+        }
     }
 
     /// Per lane: hit mask (bit i for lane i) of hits at t in (0, `t_max`), and t, b1, b2.
     #[inline(always)]
-    fn intersect(&self, r: &Prepared, t_max: f32) -> (u32, Vec4, Vec4, Vec4) {
+    fn intersect(&self, r: &Prepared<L>, t_max: f32) -> (u32, L, L, L) {
         let [m0, m1, m2] = &self.m;
-        let dn = m2[0] * r.d[0] + m2[1] * r.d[1] + m2[2] * r.d[2];
-        let t = -(m2[0] * r.o[0] + m2[1] * r.o[1] + m2[2] * r.o[2] + m2[3]) / dn;
+        let dot = |m: &[L; 4], v: &[L; 3]| m[0].mul(v[0]).add(m[1].mul(v[1])).add(m[2].mul(v[2]));
+        let dn = dot(m2, &r.d);
+        let t = dot(m2, &r.o).add(m2[3]).neg().div(dn);
         let h = [
-            r.o[0] + r.d[0] * t,
-            r.o[1] + r.d[1] * t,
-            r.o[2] + r.d[2] * t,
+            r.o[0].add(r.d[0].mul(t)),
+            r.o[1].add(r.d[1].mul(t)),
+            r.o[2].add(r.d[2].mul(t)),
         ];
-        let b1 = m0[0] * h[0] + m0[1] * h[1] + m0[2] * h[2] + m0[3];
-        let b2 = m1[0] * h[0] + m1[1] * h[1] + m1[2] * h[2] + m1[3];
-        let ok = t.cmpgt(Vec4::ZERO)
-            & t.cmplt(Vec4::splat(t_max))
-            & b1.cmpge(Vec4::ZERO)
-            & b2.cmpge(Vec4::ZERO)
-            & (b1 + b2).cmple(Vec4::ONE);
-        (ok.bitmask(), t, b1, b2)
+        let b1 = dot(m0, &h).add(m0[3]);
+        let b2 = dot(m1, &h).add(m1[3]);
+        let zero = L::splat(0.0);
+        let ok = t.gt(zero)
+            & t.lt(L::splat(t_max))
+            & b1.ge(zero)
+            & b2.ge(zero)
+            & b1.add(b2).le(L::splat(1.0));
+        (L::bitmask(ok), t, b1, b2)
     }
 }
 
-/// Up to four children: their boxes as lanes (`b[2a]` the lower and `b[2a + 1]` the upper
-/// bound on axis a, so a ray picks its near plane by index rather than by branch) and their
-/// slots (an inner node's index, a leaf, or `EMPTY`, whose box is inverted and never hit).
+/// Up to [`Lanes::N`] children: their boxes as lanes (`b[2a]` the lower and `b[2a + 1]` the
+/// upper bound on axis a, so a ray picks its near plane by index rather than by branch) and
+/// their slots (an inner node's index, a leaf, or `EMPTY`, whose box is inverted and never hit).
 #[derive(Clone, Copy)]
-struct Node4 {
-    b: [Vec4; 6],
-    child: [u32; 4],
+struct Node<L: Lanes> {
+    b: [L; 6],
+    child: L::Ids,
 }
 
-impl Node4 {
-    /// A node whose lane i has box [lo[i], hi[i]] per axis (`lo` and `hi` as [axis] of lanes).
-    fn new(lo: [Vec4; 3], hi: [Vec4; 3], child: [u32; 4]) -> Node4 {
-        Node4 {
-            b: [lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]],
+impl<L: Lanes> Node<L> {
+    /// A node whose lane i has box [lo[a][i], hi[a][i]] on axis a and slot `child[i]`.
+    fn new(lo: &[[f32; 8]; 3], hi: &[[f32; 8]; 3], child: L::Ids) -> Node<L> {
+        let l = |v: &[f32; 8]| L::from_slice(v);
+        Node {
+            b: [
+                l(&lo[0]),
+                l(&hi[0]),
+                l(&lo[1]),
+                l(&hi[1]),
+                l(&lo[2]),
+                l(&hi[2]),
+            ],
             child,
         }
     }
@@ -168,16 +192,17 @@ impl Node4 {
 
 /// A ray prepared for the SIMD tests: origin, direction and reciprocal direction splatted per
 /// axis, and which slab plane is near on each axis.
-struct Prepared {
-    o: [Vec4; 3],
-    d: [Vec4; 3],
-    inv: [Vec4; 3],
-    /// Index into `Node4::b` of the near plane on each axis (the far one is `^ 1`).
+struct Prepared<L: Lanes> {
+    o: [L; 3],
+    d: [L; 3],
+    inv: [L; 3],
+    /// Index into `Node::b` of the near plane on each axis (the far one is `^ 1`).
     near: [usize; 3],
 }
 
-impl Prepared {
-    fn new(o: Vec3A, d: Vec3A) -> Prepared {
+impl<L: Lanes> Prepared<L> {
+    #[inline(always)]
+    fn new(o: Vec3A, d: Vec3A) -> Prepared<L> {
         // A zero component would give 0 × ∞ = NaN in the slab test; a tiny one gives the
         // same answer without it.
         let safe = |c: f32| {
@@ -187,31 +212,35 @@ impl Prepared {
                 c
             }
         };
-        let inv = [1.0 / safe(d.x), 1.0 / safe(d.y), 1.0 / safe(d.z)];
+        // One vector division for the three reciprocals (the same correctly rounded values).
+        let inv = (Vec3A::ONE / Vec3A::new(safe(d.x), safe(d.y), safe(d.z))).to_array();
         Prepared {
-            o: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
-            d: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
-            inv: inv.map(Vec4::splat),
+            o: [L::splat(o.x), L::splat(o.y), L::splat(o.z)],
+            d: [L::splat(d.x), L::splat(d.y), L::splat(d.z)],
+            inv: inv.map(L::splat),
             near: [0, 2, 4].map(|k| k + (inv[k / 2] < 0.0) as usize),
         }
     }
 
-    /// Slab test of the node's four boxes over (0, `t_max`): hit mask and entry distances.
+    /// Slab test of the node's boxes over (0, `t_max`): hit mask and entry distances.
     #[inline(always)]
-    fn boxes(&self, n: &Node4, t_max: f32) -> (u32, Vec4) {
+    fn boxes(&self, n: &Node<L>, t_max: f32) -> (u32, L) {
         let axis = |a: usize| {
             let (near, far) = (n.b[self.near[a]], n.b[self.near[a] ^ 1]);
             (
-                (near - self.o[a]) * self.inv[a],
-                (far - self.o[a]) * self.inv[a],
+                near.sub(self.o[a]).mul(self.inv[a]),
+                far.sub(self.o[a]).mul(self.inv[a]),
             )
         };
         let (nx, fx) = axis(0);
         let (ny, fy) = axis(1);
         let (nz, fz) = axis(2);
-        let t_near = nx.max(ny).max(nz.max(Vec4::ZERO));
-        let t_far = fx.min(fy).min(fz.min(Vec4::splat(t_max))) * FAR_SCALE;
-        (t_near.cmple(t_far).bitmask(), t_near)
+        let t_near = nx.max(ny).max(nz.max(L::splat(0.0)));
+        let t_far = fx
+            .min(fy)
+            .min(fz.min(L::splat(t_max)))
+            .mul(L::splat(FAR_SCALE));
+        (L::bitmask(t_near.le(t_far)), t_near)
     }
 }
 
@@ -259,15 +288,15 @@ impl Stack {
     }
 }
 
-/// A four-wide BVH over a set of triangles.
-pub(crate) struct Bvh4 {
-    nodes: Vec<Node4>,
-    packs: Vec<Tri4>,
+/// A BVH over a set of triangles with [`Lanes::N`]-wide nodes and triangle packs.
+pub(crate) struct Tree<L: Lanes> {
+    nodes: Vec<Node<L>>,
+    packs: Vec<TriPack<L>>,
 }
 
-impl Bvh4 {
+impl<L: Lanes> Tree<L> {
     /// Builds over the triangles `ids` (at least one), whose vertices are `verts(id)`.
-    pub(crate) fn build(ids: &[u32], verts: impl Fn(u32) -> [Vec3; 3]) -> Bvh4 {
+    fn build(ids: &[u32], verts: impl Fn(u32) -> [Vec3; 3]) -> Tree<L> {
         let bvh_tris: Vec<BvhTriangle> = ids
             .iter()
             .map(|&i| {
@@ -280,17 +309,17 @@ impl Bvh4 {
             })
             .collect();
         let params = obvhs::BvhBuildParams {
-            max_prims_per_leaf: LEAF_TRIANGLES,
+            max_prims_per_leaf: LEAF_PACKS_ASKED * L::N as u32,
             ..obvhs::BvhBuildParams::medium_build()
         };
         let mut core = Duration::default();
         let bvh2 = obvhs::bvh2::builder::build_bvh2_from_tris(&bvh_tris, params, &mut core);
         drop(bvh_tris);
-        let mut out = Bvh4 {
-            nodes: Vec::with_capacity(bvh2.nodes.len() / 2 + 1),
-            packs: Vec::with_capacity(ids.len() / 2 + 1),
+        let mut out = Tree {
+            nodes: Vec::with_capacity(bvh2.nodes.len() / (L::N / 2) + 1),
+            packs: Vec::with_capacity(ids.len() / (L::N / 2) + 1),
         };
-        let pack = |out: &mut Bvh4, n: &obvhs::bvh2::node::Bvh2Node| {
+        let pack = |out: &mut Tree<L>, n: &obvhs::bvh2::node::Bvh2Node| {
             let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
             let tris: Vec<(u32, IsectTri)> = bvh2.primitive_indices[range]
                 .iter()
@@ -305,12 +334,14 @@ impl Bvh4 {
         let root = &bvh2.nodes[0];
         if root.is_leaf() {
             let slot = pack(&mut out, root);
-            let lane0 = |inside: f32, outside: f32| Vec4::new(inside, outside, outside, outside);
-            out.nodes.push(Node4::new(
-                [lane0(f32::NEG_INFINITY, f32::INFINITY); 3],
-                [lane0(f32::INFINITY, f32::NEG_INFINITY); 3],
-                [slot, EMPTY, EMPTY, EMPTY],
-            ));
+            let (mut lo, mut hi) = ([[f32::INFINITY; 8]; 3], [[f32::NEG_INFINITY; 8]; 3]);
+            let mut child = L::ids(EMPTY);
+            for a in 0..3 {
+                lo[a][0] = f32::NEG_INFINITY;
+                hi[a][0] = f32::INFINITY;
+            }
+            child.as_mut()[0] = slot;
+            out.nodes.push(Node::new(&lo, &hi, child));
         } else {
             out.inner(&bvh2.nodes, 0, &pack);
         }
@@ -320,30 +351,30 @@ impl Bvh4 {
     /// Packs a leaf's triangles and returns its slot.
     fn push_leaf(&mut self, tris: &[(u32, IsectTri)]) -> u32 {
         let first = self.packs.len() as u32;
-        let chunks: Vec<&[(u32, IsectTri)]> = tris.chunks(4).collect();
+        let chunks: Vec<&[(u32, IsectTri)]> = tris.chunks(L::N).collect();
         assert!(
-            !chunks.is_empty() && chunks.len() as u32 <= LEAF_PACKS,
+            !chunks.is_empty() && chunks.len() <= LEAF_PACKS_MAX,
             "a BVH leaf of {} triangles",
             tris.len()
         );
         assert!(first < 1 << 28, "more than 2^28 triangle packs");
         for c in &chunks {
-            self.packs.push(Tri4::new(c));
+            self.packs.push(TriPack::new(c));
         }
         LEAF | (chunks.len() as u32 - 1) << 28 | first
     }
 
     /// Converts the subtree of inner BVH2 node `i` (depth first) and returns its index: the
-    /// node's children are opened, largest surface area first, until it has four.
+    /// node's children are opened, largest surface area first, until it has [`Lanes::N`].
     fn inner(
         &mut self,
         b2: &[obvhs::bvh2::node::Bvh2Node],
         i: usize,
-        pack: &impl Fn(&mut Bvh4, &obvhs::bvh2::node::Bvh2Node) -> u32,
+        pack: &impl Fn(&mut Tree<L>, &obvhs::bvh2::node::Bvh2Node) -> u32,
     ) -> u32 {
         let kids = |k: usize| [b2[k].first_index as usize, b2[k].first_index as usize + 1];
         let mut children: Vec<usize> = kids(i).to_vec();
-        while children.len() < 4 {
+        while children.len() < L::N {
             let best = children
                 .iter()
                 .enumerate()
@@ -359,31 +390,28 @@ impl Bvh4 {
             children.extend(kids(c));
         }
         let me = self.nodes.len();
-        self.nodes.push(Node4::new(
-            [Vec4::splat(f32::INFINITY); 3],
-            [Vec4::splat(f32::NEG_INFINITY); 3],
-            [EMPTY; 4],
-        ));
+        let (mut lo, mut hi) = ([[f32::INFINITY; 8]; 3], [[f32::NEG_INFINITY; 8]; 3]);
+        self.nodes.push(Node::new(&lo, &hi, L::ids(EMPTY)));
+        let mut child = L::ids(EMPTY);
         for (lane, &c) in children.iter().enumerate() {
             let n = &b2[c];
-            let slot = if n.is_leaf() {
+            child.as_mut()[lane] = if n.is_leaf() {
                 pack(self, n)
             } else {
                 self.inner(b2, c, pack)
             };
-            let node = &mut self.nodes[me];
-            node.child[lane] = slot;
             for a in 0..3 {
-                node.b[2 * a][lane] = n.aabb.min[a];
-                node.b[2 * a + 1][lane] = n.aabb.max[a];
+                lo[a][lane] = n.aabb.min[a];
+                hi[a][lane] = n.aabb.max[a];
             }
         }
+        self.nodes[me] = Node::new(&lo, &hi, child);
         me as u32
     }
 
     /// The triangle packs of leaf slot `slot`.
     #[inline(always)]
-    fn leaf(&self, slot: u32) -> &[Tri4] {
+    fn leaf(&self, slot: u32) -> &[TriPack<L>] {
         let first = (slot & 0x0fff_ffff) as usize;
         let count = ((slot >> 28) & 7) as usize + 1;
         &self.packs[first..first + count]
@@ -391,15 +419,15 @@ impl Bvh4 {
 
     /// Closest hit at t in (0, `t_max`) that `keep(triangle id, b1, b2)` accepts: (triangle id,
     /// t, b1, b2).
-    #[inline]
-    pub(crate) fn closest(
+    #[inline(always)]
+    fn closest(
         &self,
         o: Vec3A,
         d: Vec3A,
         mut t_max: f32,
         keep: impl Fn(u32, f32, f32) -> bool,
     ) -> Option<(u32, f32, f32, f32)> {
-        let r = Prepared::new(o, d);
+        let r = Prepared::<L>::new(o, d);
         let mut best = None;
         let mut stack = Stack::new();
         let mut slot = 0u32;
@@ -410,7 +438,7 @@ impl Bvh4 {
                 match mask.count_ones() {
                     0 => {}
                     1 => {
-                        slot = node.child[mask.trailing_zeros() as usize];
+                        slot = node.child.as_ref()[mask.trailing_zeros() as usize];
                         continue;
                     }
                     _ => {
@@ -422,10 +450,11 @@ impl Bvh4 {
                 for pack in self.leaf(slot) {
                     let (mask, t, b1, b2) = pack.intersect(&r, t_max);
                     for lane in lanes(mask) {
-                        let id = pack.ids[lane];
-                        if t[lane] < t_max && keep(id, b1[lane], b2[lane]) {
-                            t_max = t[lane];
-                            best = Some((id, t[lane], b1[lane], b2[lane]));
+                        let id = pack.ids.as_ref()[lane];
+                        let t = t.lane(lane);
+                        if t < t_max && keep(id, b1.lane(lane), b2.lane(lane)) {
+                            t_max = t;
+                            best = Some((id, t, b1.lane(lane), b2.lane(lane)));
                         }
                     }
                 }
@@ -443,15 +472,15 @@ impl Bvh4 {
     }
 
     /// True when nothing that `keep` accepts is hit at t in (0, `t_max`).
-    #[inline]
-    pub(crate) fn unoccluded(
+    #[inline(always)]
+    fn unoccluded(
         &self,
         o: Vec3A,
         d: Vec3A,
         t_max: f32,
         keep: impl Fn(u32, f32, f32) -> bool,
     ) -> bool {
-        let r = Prepared::new(o, d);
+        let r = Prepared::<L>::new(o, d);
         let mut stack = Stack::new();
         let mut slot = 0u32;
         loop {
@@ -459,13 +488,13 @@ impl Bvh4 {
                 let node = &self.nodes[slot as usize];
                 let (mask, _) = r.boxes(node, t_max);
                 for lane in lanes(mask) {
-                    stack.push((node.child[lane], 0.0));
+                    stack.push((node.child.as_ref()[lane], 0.0));
                 }
             } else {
                 for pack in self.leaf(slot) {
                     let (mask, _, b1, b2) = pack.intersect(&r, t_max);
                     for lane in lanes(mask) {
-                        if keep(pack.ids[lane], b1[lane], b2[lane]) {
+                        if keep(pack.ids.as_ref()[lane], b1.lane(lane), b2.lane(lane)) {
                             return false;
                         }
                     }
@@ -477,6 +506,103 @@ impl Bvh4 {
             }
         }
     }
+}
+
+/// A BVH over a set of triangles, as wide as the CPU's SIMD allows: eight-wide nodes and
+/// packs where the CPU has AVX2 ([`Tree<F8>`]), four-wide otherwise ([`Tree<Vec4>`]). Both give
+/// the same hits (the same arithmetic per triangle; only the order in which equal-distance
+/// hits are found can differ).
+pub(crate) enum Bvh {
+    /// Four-wide (SSE or NEON).
+    W4(Tree<Vec4>),
+    /// Eight-wide (AVX2).
+    #[cfg(target_arch = "x86_64")]
+    W8(Tree<F8>),
+}
+
+impl Bvh {
+    /// Builds over the triangles `ids` (at least one), whose vertices are `verts(id)`, at the
+    /// widest width this CPU runs.
+    pub(crate) fn build(ids: &[u32], verts: impl Fn(u32) -> [Vec3; 3]) -> Bvh {
+        #[cfg(target_arch = "x86_64")]
+        if lanes::has_avx2() {
+            return Bvh::W8(Tree::build(ids, verts));
+        }
+        Bvh::W4(Tree::build(ids, verts))
+    }
+
+    /// Builds four-wide whatever the CPU (tests of the fallback).
+    #[cfg(test)]
+    pub(crate) fn build4(ids: &[u32], verts: impl Fn(u32) -> [Vec3; 3]) -> Bvh {
+        Bvh::W4(Tree::build(ids, verts))
+    }
+
+    /// Closest hit at t in (0, `t_max`) that `keep(triangle id, b1, b2)` accepts: (triangle id,
+    /// t, b1, b2).
+    #[inline]
+    pub(crate) fn closest(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        t_max: f32,
+        keep: impl Fn(u32, f32, f32) -> bool,
+    ) -> Option<(u32, f32, f32, f32)> {
+        match self {
+            Bvh::W4(t) => t.closest(o, d, t_max, keep),
+            // SAFETY: eight-wide trees are built only on CPUs with AVX2.
+            #[cfg(target_arch = "x86_64")]
+            Bvh::W8(t) => unsafe { closest_avx2(t, o, d, t_max, keep) },
+        }
+    }
+
+    /// True when nothing that `keep` accepts is hit at t in (0, `t_max`).
+    #[inline]
+    pub(crate) fn unoccluded(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        t_max: f32,
+        keep: impl Fn(u32, f32, f32) -> bool,
+    ) -> bool {
+        match self {
+            Bvh::W4(t) => t.unoccluded(o, d, t_max, keep),
+            // SAFETY: eight-wide trees are built only on CPUs with AVX2.
+            #[cfg(target_arch = "x86_64")]
+            Bvh::W8(t) => unsafe { unoccluded_avx2(t, o, d, t_max, keep) },
+        }
+    }
+}
+
+/// [`Tree::closest`] compiled for AVX2, where the eight-lane operations inline.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn closest_avx2(
+    t: &Tree<F8>,
+    o: Vec3A,
+    d: Vec3A,
+    t_max: f32,
+    keep: impl Fn(u32, f32, f32) -> bool,
+) -> Option<(u32, f32, f32, f32)> {
+    t.closest(o, d, t_max, keep)
+}
+
+/// [`Tree::unoccluded`] compiled for AVX2.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn unoccluded_avx2(
+    t: &Tree<F8>,
+    o: Vec3A,
+    d: Vec3A,
+    t_max: f32,
+    keep: impl Fn(u32, f32, f32) -> bool,
+) -> bool {
+    t.unoccluded(o, d, t_max, keep)
 }
 
 /// The set bits of a lane mask, lowest first.
@@ -494,12 +620,12 @@ fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
 /// Pushes the hit children of `node` (two or more bits of `mask`) farthest first and returns
 /// the nearest, which is visited next.
 #[inline(always)]
-fn push_ordered(stack: &mut Stack, node: &Node4, mask: u32, t_near: Vec4) -> u32 {
-    let mut hits = [(0u32, 0.0f32); 4];
+fn push_ordered<L: Lanes>(stack: &mut Stack, node: &Node<L>, mask: u32, t_near: L) -> u32 {
+    let mut hits = [(0u32, 0.0f32); 8];
     let mut n = 0;
     for lane in lanes(mask) {
         // Insertion sort by distance, nearest last.
-        let e = (node.child[lane], t_near[lane]);
+        let e = (node.child.as_ref()[lane], t_near.lane(lane));
         let mut k = n;
         while k > 0 && hits[k - 1].1 < e.1 {
             hits[k] = hits[k - 1];
@@ -581,7 +707,10 @@ mod tests {
                 })
                 .collect();
             let ids: Vec<u32> = (0..n as u32).collect();
-            let bvh = Bvh4::build(&ids, |i| tris[i as usize]);
+            let bvhs = [
+                Bvh::build(&ids, |i| tris[i as usize]),
+                Bvh::build4(&ids, |i| tris[i as usize]),
+            ];
             let isect: Vec<IsectTri> = tris
                 .iter()
                 .map(|v| IsectTri::new(v[0], v[1], v[2]))
@@ -602,12 +731,14 @@ mod tests {
                             .map(|h| (i as u32, h.0))
                     })
                     .min_by(|a, b| a.1.total_cmp(&b.1));
-                let got = bvh.closest(o.into(), d.into(), t_max, |_, _, _| true);
-                assert_eq!(got.map(|g| (g.0, g.1)), brute, "n {n}");
-                assert_eq!(
-                    bvh.unoccluded(o.into(), d.into(), t_max, |_, _, _| true),
-                    brute.is_none()
-                );
+                for bvh in &bvhs {
+                    let got = bvh.closest(o.into(), d.into(), t_max, |_, _, _| true);
+                    assert_eq!(got.map(|g| (g.0, g.1)), brute, "n {n}");
+                    assert_eq!(
+                        bvh.unoccluded(o.into(), d.into(), t_max, |_, _, _| true),
+                        brute.is_none()
+                    );
+                }
                 hits += brute.is_some() as u32;
             }
             assert!(hits > 400, "n {n}: {hits} hits");
@@ -642,7 +773,15 @@ mod tests {
                 Vec3::new(0.0, 0.0, 1.0),
             ],
         ];
-        let bvh = Bvh4::build(&[0, 1], |i| q[i as usize]);
+        for bvh in [
+            Bvh::build(&[0, 1], |i| q[i as usize]),
+            Bvh::build4(&[0, 1], |i| q[i as usize]),
+        ] {
+            flat_quad_is_hit(&bvh);
+        }
+    }
+
+    fn flat_quad_is_hit(bvh: &Bvh) {
         for k in 1..20 {
             let x = k as f32 / 20.0;
             let down = bvh.closest(
