@@ -16,22 +16,36 @@ pub(crate) trait Lanes: Copy {
     type Ids: Copy + AsRef<[u32]> + AsMut<[u32]>;
     /// Every id set to `v`.
     fn ids(v: u32) -> Self::Ids;
+    /// Every lane set to `v`.
     fn splat(v: f32) -> Self;
     /// Lanes from the first [`Lanes::N`] values of `v`.
+    ///
+    /// # Panics
+    /// If `v` holds fewer than [`Lanes::N`] values.
     fn from_slice(v: &[f32]) -> Self;
+    /// Lane `i` (< [`Lanes::N`]).
     fn lane(self, i: usize) -> f32;
+    /// Lane-wise `self + o`, IEEE single precision (no fused multiply–add anywhere).
     fn add(self, o: Self) -> Self;
+    /// Lane-wise `self − o`.
     fn sub(self, o: Self) -> Self;
+    /// Lane-wise `self × o`.
     fn mul(self, o: Self) -> Self;
+    /// Lane-wise `self / o`, correctly rounded.
     fn div(self, o: Self) -> Self;
+    /// Lane-wise −self (the sign bit flipped).
     fn neg(self) -> Self;
     /// Lane-wise minimum (`min(self, o)` with the SSE rule: `o` where either is NaN).
     fn min(self, o: Self) -> Self;
+    /// Lane-wise maximum (the same NaN rule).
     fn max(self, o: Self) -> Self;
-    /// Ordered comparisons (false where either is NaN).
+    /// Ordered comparisons (false where either is NaN): `self > o`.
     fn gt(self, o: Self) -> Self::Mask;
+    /// `self < o`.
     fn lt(self, o: Self) -> Self::Mask;
+    /// `self ≥ o`.
     fn ge(self, o: Self) -> Self::Mask;
+    /// `self ≤ o`.
     fn le(self, o: Self) -> Self::Mask;
     /// Bit i set where lane i of the mask is true.
     fn bitmask(m: Self::Mask) -> u32;
