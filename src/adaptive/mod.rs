@@ -266,6 +266,18 @@ impl AdaptiveSettings {
             && self.budget_spp.is_none_or(|b| b >= self.steer_from_spp)
     }
 
+    /// The most samples the loop gives one pixel: `max_spp`, and for the perceptual sampler
+    /// under a budget B also [`allocate::BUDGET_CAP_SHARE`] · B (rounded down to a stratified
+    /// total).
+    pub fn pixel_cap(&self) -> u32 {
+        match self.budget_spp {
+            Some(b) if self.sampler == SamplerKind::Perceptual => {
+                allocate::stratified_floor(allocate::BUDGET_CAP_SHARE * b).min(self.max_spp)
+            }
+            _ => self.max_spp,
+        }
+    }
+
     /// Samples per pixel of the uniform sampler: the budget rounded (at least 1), else
     /// `uniform_spp`, capped at `max_spp`.
     pub fn uniform_total_spp(&self) -> u32 {
@@ -550,6 +562,7 @@ pub fn render_adaptive(
     };
     st.decision_time += t_setup.elapsed();
     let mut rate = st.stats.samples as f64 / st.stats.wall.as_secs_f64().max(1e-9);
+    let cap = s.pixel_cap();
     let mut cost = JudgeCost::default();
     let (judgement, stop) = loop {
         let t0 = Instant::now();
@@ -564,24 +577,21 @@ pub fn render_adaptive(
         if let Some(reason) = stop_before_pass(s, &st, converged, remaining, start) {
             break (judgement, reason);
         }
-        let mut alloc = allocate(&st.film, &ratio, s.max_spp);
+        let mut alloc = allocate(&st.film, &ratio, cap);
         if let Some(b) = s
             .budget_spp
             .filter(|_| s.sampler == SamplerKind::Perceptual)
         {
             let floor = allocate::stratified_floor(allocate::FLOOR_SHARE * b);
-            allocate::raise_to_floor(&mut alloc, &st.film, &ratio, floor, s.max_spp);
+            allocate::raise_to_floor(&mut alloc, &st.film, &ratio, floor, cap);
         }
         st.clip(&mut alloc);
-        if let Some(rem) = remaining.filter(|_| converged >= s.converged_fraction) {
-            allocate::fill_to_level(
-                &mut alloc,
-                &st.film,
-                &ratio,
-                st.region.clone(),
-                rem,
-                s.max_spp,
-            );
+        // Spread evenly once the model has no ranking left to act on, or when every pixel it
+        // still wants to sample is at the cap.
+        if let Some(rem) =
+            remaining.filter(|_| converged >= s.converged_fraction || alloc.total() == 0)
+        {
+            allocate::fill_to_level(&mut alloc, &st.film, &ratio, st.region.clone(), rem, cap);
         }
         if alloc.total() == 0 {
             let reason = if converged >= s.converged_fraction {
@@ -592,7 +602,7 @@ pub fn render_adaptive(
             break (judgement, reason);
         }
         if let Some(rem) = remaining {
-            fit_to_budget(&mut alloc, &st.film, &ratio, rem, s.max_spp);
+            fit_to_budget(&mut alloc, &st.film, &ratio, rem, cap);
         }
         if let Some(limit) = s.time_budget {
             // Size the pass to land on the time budget: the samples the measured rate allows
@@ -614,7 +624,7 @@ pub fn render_adaptive(
             if (samples as f64) < 0.002 * n_px as f64 {
                 break (judgement, StopReason::Time);
             }
-            fit_to_budget(&mut alloc, &st.film, &ratio, samples, s.max_spp);
+            fit_to_budget(&mut alloc, &st.film, &ratio, samples, cap);
         }
         let pass = render_counts(
             scene,
