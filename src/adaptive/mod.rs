@@ -270,12 +270,17 @@ impl AdaptiveSettings {
     /// under a budget B also [`allocate::BUDGET_CAP_SHARE`] · B (rounded down to a stratified
     /// total).
     pub fn pixel_cap(&self) -> u32 {
-        match self.budget_spp {
-            Some(b) if self.sampler == SamplerKind::Perceptual => {
-                allocate::stratified_floor(allocate::BUDGET_CAP_SHARE * b).min(self.max_spp)
-            }
-            _ => self.max_spp,
+        match self.perceptual_budget() {
+            Some(b) => allocate::stratified_floor(allocate::BUDGET_CAP_SHARE * b).min(self.max_spp),
+            None => self.max_spp,
         }
+    }
+
+    /// The average budget B when the perceptual sampler renders under one (the floor and the
+    /// cap apply only then).
+    fn perceptual_budget(&self) -> Option<f64> {
+        self.budget_spp
+            .filter(|_| self.sampler == SamplerKind::Perceptual)
     }
 
     /// Samples per pixel of the uniform sampler: the budget rounded (at least 1), else
@@ -578,10 +583,7 @@ pub fn render_adaptive(
             break (judgement, reason);
         }
         let mut alloc = allocate(&st.film, &ratio, cap);
-        if let Some(b) = s
-            .budget_spp
-            .filter(|_| s.sampler == SamplerKind::Perceptual)
-        {
+        if let Some(b) = s.perceptual_budget() {
             let floor = allocate::stratified_floor(allocate::FLOOR_SHARE * b);
             allocate::raise_to_floor(&mut alloc, &st.film, &ratio, floor, cap);
         }

@@ -451,10 +451,10 @@ impl<L: Lanes> Tree<L> {
                     let (mask, t, b1, b2) = pack.intersect(&r, t_max);
                     for lane in lanes(mask) {
                         let id = pack.ids.as_ref()[lane];
-                        let t = t.lane(lane);
-                        if t < t_max && keep(id, b1.lane(lane), b2.lane(lane)) {
+                        let (t, b1, b2) = (t.lane(lane), b1.lane(lane), b2.lane(lane));
+                        if t < t_max && keep(id, b1, b2) {
                             t_max = t;
-                            best = Some((id, t, b1.lane(lane), b2.lane(lane)));
+                            best = Some((id, t, b1, b2));
                         }
                     }
                 }
