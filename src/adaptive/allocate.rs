@@ -120,7 +120,10 @@ pub(crate) const FLOOR_SHARE: f64 = 0.75;
 /// 1.01 / 1.06×, p99 1.08 / 0.98 / 1.32 → 1.13 / 1.08 / 1.33×, JOD at −2 EV 0.94 → 1.01×; Mori
 /// knob 128 spp FLIP mean 0.95 / 0.95 / 0.98 → 0.97 / 0.97 / 1.00×. It costs some of the top
 /// gains: holodeck JOD at 1024 spp 2.21 → 1.81× as displayed, Mori knob p99 at −2 EV, 512 spp,
-/// 0.98 → 0.94×.
+/// 0.98 → 0.94×. It also bounds every speedup at BUDGET_CAP_SHARE×: a uniform render of that
+/// many times the budget gives every pixel at least as many samples. At 4 B the holodeck passed
+/// 2× at 512 spp (FLIP p99 and JOD), but the Cornell box lost again at 512 spp (FLIP mean
+/// 0.96×) and the Mori knob at 128 (0.94×).
 pub(crate) const BUDGET_CAP_SHARE: f64 = 2.0;
 
 /// Pixels below `floor` samples are raised to it in one step (never past `max_spp`), unless
