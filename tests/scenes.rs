@@ -56,3 +56,48 @@ fn holodeck_textures_and_emissive_screens() {
     assert!(rgb.iter().all(|v| v.is_finite() && *v >= 0.0));
     assert!(rgb.iter().any(|&v| v > 0.0));
 }
+
+/// The material of `name` in `s`.
+fn material<'a>(s: &'a Scene, name: &str) -> &'a aleph::material::Material {
+    s.materials
+        .iter()
+        .find(|m| m.name == name)
+        .unwrap_or_else(|| panic!("no material {name}"))
+}
+
+#[test]
+fn cornell_variants_materials_and_lights() {
+    // Glossy: Ks 0.9 / 0.8 at Ns 40 are GGX lobes of α = sqrt(2 / (Ns + 2)); the MTL lacks the
+    // `light` its OBJ uses, and the scene file gives it the original box's emission.
+    let g = load_small("scenes/cornell-variants/glossy.toml");
+    for name in ["sphere", "shortBox"] {
+        match material(&g, name).kind {
+            MaterialKind::Glossy { alpha } => {
+                assert!(
+                    (alpha - (2.0f32 / 42.0).sqrt()).abs() < 1e-6,
+                    "{name}: α {alpha}"
+                )
+            }
+            k => panic!("{name} is {k:?}"),
+        }
+    }
+    assert!(matches!(material(&g, "light").emission,
+        Some(ColorSource::Constant(c)) if c.to_array() == [17.0, 12.0, 4.0]));
+    assert_eq!(g.lights.len(), 2);
+    // Mirror: illum 5 makes the tall box a mirror of Ks 0.95.
+    let m = load_small("scenes/cornell-variants/mirror.toml");
+    assert_eq!(material(&m, "tallBox").kind, MaterialKind::Mirror);
+    assert_eq!(m.lights.len(), 2);
+    // Sphere: a mirror sphere and a clear dielectric one of Ni 2.5 (the MTL's Tf 0.1 overridden).
+    let s = load_small("scenes/cornell-variants/sphere.toml");
+    assert_eq!(material(&s, "leftSphere").kind, MaterialKind::Mirror);
+    assert!(
+        matches!(material(&s, "rightSphere").kind, MaterialKind::Dielectric { ior } if ior == 2.5)
+    );
+    assert_eq!(material(&s, "rightSphere").transmittance, glam::Vec3::ONE);
+    for scene in [&g, &m, &s] {
+        let rgb = render(scene, Strategy::Mis, 4).mean_rgb();
+        assert!(rgb.iter().all(|v| v.is_finite() && *v >= 0.0));
+        assert!(rgb.iter().any(|&v| v > 0.0));
+    }
+}

@@ -2,7 +2,7 @@
 
 use crate::util::*;
 use aleph::integrator::Strategy;
-use aleph::scene::Scene;
+use aleph::scene::{Scene, SceneDescription};
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -333,4 +333,23 @@ fn ignored_mtl_statements_are_reported_once() {
             .any(|l| l.contains("usemtl names no material") && l.contains("ghost")),
         "{err}"
     );
+    // Once the scene file overrides the stub (as McGuire's glossy box needs for its `light`),
+    // the stub is what the user asked for: no warning, and the override is the material.
+    let toml = format!("{toml}[materials.ghost]\nemission = [2.0, 2.0, 2.0]\n");
+    std::fs::write(dir.path().join("scene.toml"), &toml).unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(["render", "scene.toml", "--sampler", "uniform", "--spp", "1"])
+        .args(["-o", "out2"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("usemtl names no material"), "{err}");
+    let mut desc = SceneDescription::read(&dir.path().join("scene.toml")).unwrap();
+    desc.camera.resolution = [4, 4];
+    let s = Scene::load_description(desc).unwrap();
+    let ghost = s.materials.iter().find(|m| m.name == "ghost").unwrap();
+    assert!(matches!(ghost.emission,
+        Some(aleph::material::ColorSource::Constant(c)) if c == glam::Vec3::splat(2.0)));
 }

@@ -421,7 +421,10 @@ impl SceneDescription {
         }
         let animation = self.animation()?;
         let camera_track = self.camera_track(animation.as_ref())?;
-        let mut b = Builder::default();
+        let mut b = Builder {
+            overridden: self.materials.keys().cloned().collect(),
+            ..Default::default()
+        };
         let tracks = self.add_meshes(&mut b, animation.as_ref())?;
         self.apply_material_overrides(&mut b)?;
         self.add_light_quads(&mut b)?;
@@ -1210,6 +1213,9 @@ struct Builder {
     masks: Vec<AlphaMask>,
     mask_index: HashMap<(PathBuf, Option<char>), u32>,
     default_material: Option<u32>,
+    /// Material names the scene file overrides (`[materials.NAME]`): a `usemtl` stub of one of
+    /// these is what the user asked for, not worth a warning.
+    overridden: std::collections::HashSet<String>,
 }
 
 impl Builder {
@@ -1473,7 +1479,11 @@ impl Builder {
             .unwrap_or_else(|| path.to_path_buf());
         let mtl_dir = mtl_path.parent().unwrap_or(Path::new("")).to_path_buf();
         let materials = materials.unwrap_or_default();
-        let stubs = stubs.into_inner();
+        let stubs: Vec<String> = stubs
+            .into_inner()
+            .into_iter()
+            .filter(|n| !self.overridden.contains(n))
+            .collect();
         if !stubs.is_empty() {
             eprintln!(
                 "warning: {}: usemtl names no material of {} for {:?}: shown as grey 0.8 \
