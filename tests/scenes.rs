@@ -11,15 +11,23 @@ fn load_small(rel: &str) -> Scene {
     Scene::load_description(desc).unwrap()
 }
 
+/// The material of `name` in `s`.
+fn material<'a>(s: &'a Scene, name: &str) -> &'a aleph::material::Material {
+    s.materials
+        .iter()
+        .find(|m| m.name == name)
+        .unwrap_or_else(|| panic!("no material {name}"))
+}
+
 #[test]
 fn cornell_box_materials_and_light() {
     let s = load_small("scenes/cornell-box/scene.toml");
     assert_eq!(s.geometry.len(), 36);
-    let light = s.materials.iter().find(|m| m.name == "light").unwrap();
+    let light = material(&s, "light");
     assert!(
         matches!(light.emission, Some(ColorSource::Constant(c)) if c.to_array() == [17.0, 12.0, 4.0])
     );
-    let red = s.materials.iter().find(|m| m.name == "leftWall").unwrap();
+    let red = material(&s, "leftWall");
     assert_eq!(red.kind, MaterialKind::Diffuse);
     // The light quad's two triangles are the only emitters, and they face down (−y).
     assert_eq!(s.lights.len(), 2);
@@ -32,11 +40,7 @@ fn cornell_box_materials_and_light() {
 fn holodeck_textures_and_emissive_screens() {
     let s = load_small("scenes/holodeck/scene.toml");
     assert_eq!(s.geometry.len(), 4015 + 4); // the OBJ's triangles + two quad lights
-    let wall = s
-        .materials
-        .iter()
-        .find(|m| m.name == "holodeckwirefrane")
-        .unwrap();
+    let wall = material(&s, "holodeckwirefrane");
     // Ks 0.2, Ns 20 with map_Kd and map_Ks: glossy, α = sqrt(2/22), both colours textured.
     match wall.kind {
         MaterialKind::Glossy { alpha } => assert!((alpha - (2.0f32 / 22.0).sqrt()).abs() < 1e-6),
@@ -45,7 +49,7 @@ fn holodeck_textures_and_emissive_screens() {
     assert!(matches!(wall.kd, ColorSource::Texture { .. }));
     assert!(matches!(wall.ks, ColorSource::Texture { .. }));
     // map_Ke -mm 0 0.4 screen.png with Ke 1: emission = 0.4 × texel.
-    let screens = s.materials.iter().find(|m| m.name == "screens").unwrap();
+    let screens = material(&s, "screens");
     match screens.emission {
         Some(ColorSource::Texture { base, gain, .. }) => assert_eq!((base, gain), (0.0, 0.4)),
         e => panic!("screens emission is {e:?}"),
@@ -55,14 +59,6 @@ fn holodeck_textures_and_emissive_screens() {
     let rgb = film.mean_rgb();
     assert!(rgb.iter().all(|v| v.is_finite() && *v >= 0.0));
     assert!(rgb.iter().any(|&v| v > 0.0));
-}
-
-/// The material of `name` in `s`.
-fn material<'a>(s: &'a Scene, name: &str) -> &'a aleph::material::Material {
-    s.materials
-        .iter()
-        .find(|m| m.name == name)
-        .unwrap_or_else(|| panic!("no material {name}"))
 }
 
 #[test]
