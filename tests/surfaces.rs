@@ -2,7 +2,7 @@
 
 use crate::util::*;
 use aleph::integrator::Strategy;
-use aleph::scene::{Scene, SceneDescription};
+use aleph::scene::Scene;
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -297,22 +297,19 @@ fn ignored_mtl_statements_are_reported_once() {
         dir.path(),
         &[("c.obj", &obj), ("m.mtl", mtl), ("scene.toml", toml)],
     );
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
-        .args([
-            "render",
-            "scene.toml",
-            "--sampler",
-            "uniform",
-            "--spp",
-            "1",
-            "-o",
-            "out",
-        ])
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let err = String::from_utf8_lossy(&o.stderr);
+    // One uniform 1-spp render of the directory's scene.toml; its stderr.
+    let render_stderr = || {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+            .args(["render", "scene.toml", "--sampler", "uniform", "--spp", "1"])
+            .args(["-o", "out"])
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{err}");
+        err
+    };
+    let err = render_stderr();
     let lines: Vec<&str> = err
         .lines()
         .filter(|l| l.contains("ignored MTL statements"))
@@ -337,18 +334,9 @@ fn ignored_mtl_statements_are_reported_once() {
     // the stub is what the user asked for: no warning, and the override is the material.
     let toml = format!("{toml}[materials.ghost]\nemission = [2.0, 2.0, 2.0]\n");
     std::fs::write(dir.path().join("scene.toml"), &toml).unwrap();
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
-        .args(["render", "scene.toml", "--sampler", "uniform", "--spp", "1"])
-        .args(["-o", "out2"])
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{err}");
+    let err = render_stderr();
     assert!(!err.contains("usemtl names no material"), "{err}");
-    let mut desc = SceneDescription::read(&dir.path().join("scene.toml")).unwrap();
-    desc.camera.resolution = [4, 4];
-    let s = Scene::load_description(desc).unwrap();
+    let s = Scene::load(&dir.path().join("scene.toml")).unwrap();
     let ghost = s.materials.iter().find(|m| m.name == "ghost").unwrap();
     assert!(matches!(ghost.emission,
         Some(aleph::material::ColorSource::Constant(c)) if c == glam::Vec3::splat(2.0)));
