@@ -367,7 +367,10 @@ impl PerceptualCriterion {
 
     /// The error, pooled as a ratio over 3×3 pixels so a single lucky pixel is not called
     /// converged (pooling the error itself would carry a light's noise into its dark
-    /// neighbours), times the pixel's threshold.
+    /// neighbours), times the pixel's threshold. Without an average budget the pooled ratio is
+    /// at least [`NEIGHBOURHOOD_SHARE`] times the one the 7×7 neighbourhood predicts at the
+    /// pixel's spp ([`neighbourhood_ratio`]), so a patch of lucky pixels is not called
+    /// converged either.
     fn pooled_error(film: &Film, s: &AdaptiveSettings, scale: f32, threshold: &[f32]) -> Vec<f32> {
         let (w, h) = (film.width as usize, film.height as usize);
         let e = Self::error(film, s, scale);
@@ -376,12 +379,53 @@ impl PerceptualCriterion {
             .zip(threshold.par_iter())
             .map(|(&e, &t)| e / t)
             .collect();
-        crate::math::box_mean(&r, w, h, 1)
+        let local = crate::math::box_mean(&r, w, h, 1);
+        // Without an average budget no floor protects a pixel whose half-buffers agree by
+        // luck (heavy-tailed noise, such as caustics, does that in whole patches): its
+        // neighbourhood's noise level guards it.
+        let local = if s.budget_spp.is_none() {
+            let counts: Vec<u32> = film.pixels.iter().map(|p| p.count()).collect();
+            let wide = neighbourhood_ratio(&r, &counts, w, h);
+            local
+                .par_iter()
+                .zip(wide.par_iter())
+                .map(|(&l, &g)| l.max(NEIGHBOURHOOD_SHARE * g))
+                .collect()
+        } else {
+            local
+        };
+        local
             .par_iter()
             .zip(threshold.par_iter())
             .map(|(r, t)| r * t)
             .collect()
     }
+}
+
+/// Radius of the neighbourhood whose noise level guards each pixel's estimate (7×7 pixels).
+const NEIGHBOURHOOD_RADIUS: usize = 3;
+
+/// E|r| / √E[r²] for Gaussian noise, √(2/π): scales the neighbourhood's RMS ratio to the mean
+/// absolute ratio the local estimate measures, so that for Gaussian noise the guard sits at the
+/// local estimate's mean and binds only where that estimate is lucky.
+const NEIGHBOURHOOD_SHARE: f32 = 0.797_884_6;
+
+/// The error ratio each pixel's neighbourhood predicts at the pixel's own spp:
+/// √(mean over (2R + 1)² of r_j² n_j / n_i). r² n is the per-sample variance over the squared
+/// threshold, which does not depend on how many samples a pixel took, so the mean pools
+/// pixels of any count; E[r²] of the half-buffer estimate is the squared ratio of the pixel's
+/// mean (Var(A − B) / 4 = σ² / n).
+fn neighbourhood_ratio(r: &[f32], counts: &[u32], w: usize, h: usize) -> Vec<f32> {
+    let s2: Vec<f32> = r
+        .par_iter()
+        .zip(counts.par_iter())
+        .map(|(&r, &n)| if r.is_finite() { r * r * n as f32 } else { 0.0 })
+        .collect();
+    crate::math::box_mean(&s2, w, h, NEIGHBOURHOOD_RADIUS)
+        .par_iter()
+        .zip(counts.par_iter())
+        .map(|(&m, &n)| (m / n.max(1) as f32).sqrt())
+        .collect()
 }
 
 /// Blender Cycles' noise-threshold criterion (after Dammertz et al. 2010): the difference of
@@ -459,5 +503,72 @@ impl Criterion {
             Criterion::Perceptual(p) => p.guide_stats,
             Criterion::Variance(_) => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Stationary noise of per-sample level σ (in threshold units): each pixel's ratio is
+    /// σ/√n at its own count, so the neighbourhood predicts σ/√n_i for every pixel whatever
+    /// the counts around it.
+    #[test]
+    fn neighbourhood_ratio_pools_pixels_of_any_count() {
+        let (w, h) = (9, 9);
+        let sigma = 4.0f32;
+        let counts: Vec<u32> = (0..w * h).map(|i| [8, 32, 128, 512][i % 4]).collect();
+        let r: Vec<f32> = counts.iter().map(|&n| sigma / (n as f32).sqrt()).collect();
+        let got = neighbourhood_ratio(&r, &counts, w, h);
+        for (g, &n) in got.iter().zip(&counts) {
+            let want = sigma / (n as f32).sqrt();
+            assert!(
+                (g - want).abs() < 1e-5 * want.max(1.0),
+                "{g} against {want} at n = {n}"
+            );
+        }
+    }
+
+    /// Caustic-like noise: each sample is 1, or 51 with probability 0.02 (σ = 7), 64 samples a
+    /// pixel, and a threshold at half the mean's standard error, so every pixel truly needs
+    /// 4× its samples. Four pixels in ten draw as many outliers into each half-buffer, so
+    /// their half-buffers agree exactly; the 3×3-pooled estimate alone (the path under a
+    /// budget) calls 27 % of the image converged, the guarded one 0.2 %.
+    #[test]
+    fn heavy_tailed_noise_leaves_no_lucky_patch_converged() {
+        let (w, h) = (48usize, 48usize);
+        let mut film = Film::new(w as u32, h as u32);
+        for (i, px) in film.pixels.iter_mut().enumerate() {
+            let mut rng = crate::rng::Rng::new(7, i as u64);
+            for _ in 0..64 {
+                let v = if rng.uniform() < 0.02 { 51.0 } else { 1.0 };
+                px.add(glam::Vec3::splat(v));
+            }
+        }
+        let threshold = vec![0.5 * 7.0 / 8.0; w * h];
+        let called_converged = |s: &AdaptiveSettings| {
+            let e = PerceptualCriterion::pooled_error(&film, s, 1.0, &threshold);
+            e.iter().zip(&threshold).filter(|(e, t)| *e <= *t).count() as f64 / (w * h) as f64
+        };
+        let guarded = called_converged(&AdaptiveSettings::default());
+        let local = called_converged(&AdaptiveSettings {
+            budget_spp: Some(256.0),
+            ..AdaptiveSettings::default()
+        });
+        assert!(local > 0.1, "3×3 estimate alone: {local} converged");
+        assert!(guarded < 0.01, "guarded estimate: {guarded} converged");
+    }
+
+    /// A lucky pixel (no difference between its half-buffers) inside a noisy patch is predicted
+    /// at its neighbours' level: √(48/49) of it over 7×7.
+    #[test]
+    fn a_lucky_pixel_takes_its_neighbourhoods_level() {
+        let (w, h) = (7, 7);
+        let counts = vec![64u32; w * h];
+        let mut r = vec![2.0f32; w * h];
+        r[3 * w + 3] = 0.0;
+        let got = neighbourhood_ratio(&r, &counts, w, h)[3 * w + 3];
+        let want = 2.0 * (48.0f32 / 49.0).sqrt();
+        assert!((got - want).abs() < 1e-5, "{got} against {want}");
     }
 }

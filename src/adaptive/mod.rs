@@ -15,7 +15,13 @@
 //! 2. Each pass: the error estimate from the two half-buffers (even and odd samples) is
 //!    e = |Y(A) − Y(B)| / 2 in scene luminance; the ratio r = e / threshold, averaged over 3×3
 //!    pixels so a single lucky pixel is not called converged, says how far a pixel is from
-//!    converged. (When the first pass spends a sample budget, nothing is judged.)
+//!    converged. (When the first pass spends a sample budget, nothing is judged.) Without an
+//!    average budget (the default stop, a time budget) r is also at least √(2/π) times the
+//!    RMS ratio its 7×7 neighbourhood predicts at the pixel's spp (r² n pooled, which does not
+//!    depend on the pixels' counts): heavy-tailed noise such as a caustic's leaves whole
+//!    patches whose half-buffers agree by luck (without the guard, 14 % of the pixels of
+//!    McGuire's sphere box stopped under 128 spp, in patches among neighbours at the
+//!    4096-spp cap). Under a budget the floor (step 4) does that job.
 //! 3. Pixels with r > 1 (above threshold) get more samples, and so do their 8 neighbours
 //!    (re-opening, as Cycles' box pass does, so thin features are not frozen early). Error falls
 //!    as 1/√n, so a pixel needs about n (r² − 1) more samples; each pass gives that, at most
