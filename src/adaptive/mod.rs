@@ -585,12 +585,21 @@ pub fn render_adaptive(
         let ratio = judgement.ratio();
         let converged = st.report(&ratio, progress);
         let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
+        let floor = stop_floor(s, &st);
         if let Some(reason) = stop_before_pass(s, &st, converged, remaining, start) {
-            break (judgement, reason);
+            // A converged stop first lifts the pixels left under the stop's floor.
+            let mut lift = Allocation::empty(st.film.len());
+            allocate::raise_to_floor(&mut lift, &st.film, &ratio, floor.unwrap_or(0), cap);
+            st.clip(&mut lift);
+            if reason != StopReason::Converged || floor.is_none() || lift.total() == 0 {
+                break (judgement, reason);
+            }
         }
         let mut alloc = allocate(&st.film, &ratio, cap);
         if let Some(b) = s.perceptual_budget() {
             let floor = allocate::stratified_floor(allocate::FLOOR_SHARE * b);
+            allocate::raise_to_floor(&mut alloc, &st.film, &ratio, floor, cap);
+        } else if let Some(floor) = floor {
             allocate::raise_to_floor(&mut alloc, &st.film, &ratio, floor, cap);
         }
         st.clip(&mut alloc);
@@ -715,6 +724,19 @@ fn unjudged(
         wall: start.elapsed(),
         velocity,
     }
+}
+
+/// The perceptual sampler's floor without a budget: [`allocate::STOP_FLOOR_SHARE`] of the
+/// region's mean spp (rounded down to a stratified total); `None` under a budget (which has its
+/// own floor) or for the variance sampler.
+fn stop_floor(s: &AdaptiveSettings, st: &LoopState) -> Option<u32> {
+    if s.sampler != SamplerKind::Perceptual || s.budget_spp.is_some() {
+        return None;
+    }
+    let mean = st.region_samples() as f64 / st.region.len() as f64;
+    Some(allocate::stratified_floor(
+        allocate::STOP_FLOOR_SHARE * mean,
+    ))
 }
 
 /// Why the loop stops before allocating another pass, if it does: the time budget, the sample
