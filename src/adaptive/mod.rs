@@ -585,22 +585,22 @@ pub fn render_adaptive(
         let ratio = judgement.ratio();
         let converged = st.report(&ratio, progress);
         let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
-        let floor = stop_floor(s, &st);
+        let floor = pixel_floor(s, &st);
         if let Some(reason) = stop_before_pass(s, &st, converged, remaining, start) {
-            // A converged stop first lifts the pixels left under the stop's floor.
-            let mut lift = Allocation::empty(st.film.len());
-            allocate::raise_to_floor(&mut lift, &st.film, &ratio, floor.unwrap_or(0), cap);
-            st.clip(&mut lift);
-            if reason != StopReason::Converged || floor.is_none() || lift.total() == 0 {
+            // A converged stop first lifts the pixels left under the floor.
+            let lifts = |f| {
+                let mut lift = Allocation::empty(st.film.len());
+                allocate::raise_to_floor(&mut lift, &st.film, &ratio, f, cap);
+                st.clip(&mut lift);
+                lift.total() > 0
+            };
+            if reason != StopReason::Converged || !floor.is_some_and(lifts) {
                 break (judgement, reason);
             }
         }
         let mut alloc = allocate(&st.film, &ratio, cap);
-        if let Some(b) = s.perceptual_budget() {
-            let floor = allocate::stratified_floor(allocate::FLOOR_SHARE * b);
-            allocate::raise_to_floor(&mut alloc, &st.film, &ratio, floor, cap);
-        } else if let Some(floor) = floor {
-            allocate::raise_to_floor(&mut alloc, &st.film, &ratio, floor, cap);
+        if let Some(f) = floor {
+            allocate::raise_to_floor(&mut alloc, &st.film, &ratio, f, cap);
         }
         st.clip(&mut alloc);
         // Spread evenly once the model has no ranking left to act on, or when every pixel it
@@ -726,17 +726,18 @@ fn unjudged(
     }
 }
 
-/// The perceptual sampler's floor without a budget: [`allocate::STOP_FLOOR_SHARE`] of the
-/// region's mean spp (rounded down to a stratified total); `None` under a budget (which has its
-/// own floor) or for the variance sampler.
-fn stop_floor(s: &AdaptiveSettings, st: &LoopState) -> Option<u32> {
-    if s.sampler != SamplerKind::Perceptual || s.budget_spp.is_some() {
+/// The perceptual sampler's floor, rounded down to a stratified total: under a budget B,
+/// [`allocate::FLOOR_SHARE`] · B; without one, [`allocate::STOP_FLOOR_SHARE`] of the region's
+/// current mean spp. `None` for the variance sampler.
+fn pixel_floor(s: &AdaptiveSettings, st: &LoopState) -> Option<u32> {
+    if s.sampler != SamplerKind::Perceptual {
         return None;
     }
-    let mean = st.region_samples() as f64 / st.region.len() as f64;
-    Some(allocate::stratified_floor(
-        allocate::STOP_FLOOR_SHARE * mean,
-    ))
+    let target = match s.budget_spp {
+        Some(b) => allocate::FLOOR_SHARE * b,
+        None => allocate::STOP_FLOOR_SHARE * st.region_samples() as f64 / st.region.len() as f64,
+    };
+    Some(allocate::stratified_floor(target))
 }
 
 /// Why the loop stops before allocating another pass, if it does: the time budget, the sample
