@@ -75,6 +75,29 @@ pub fn box_mean(v: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
     box_mean_interleaved(v, w, h, 1, r)
 }
 
+/// Largest value over the 3×3 window around each pixel of a row-major `w × h` image (the
+/// window cut at the borders).
+///
+/// # Panics
+/// If `v.len() != w · h`.
+pub fn max_filter3(v: &[f32], w: usize, h: usize) -> Vec<f32> {
+    use rayon::prelude::*;
+    assert_eq!(v.len(), w * h, "max_filter3: buffer is not {w}×{h}");
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let mut m = f32::NEG_INFINITY;
+            for yy in y.saturating_sub(1)..(y + 2).min(h) {
+                for xx in x.saturating_sub(1)..(x + 2).min(w) {
+                    m = m.max(v[yy * w + xx]);
+                }
+            }
+            m
+        })
+        .collect()
+}
+
 /// [`box_mean`] of each channel of an image with `c` interleaved channels (`w × h × c`),
 /// separably: a horizontal pass, then a vertical one, rows in parallel.
 ///

@@ -5,22 +5,10 @@ use rayon::prelude::*;
 
 /// 3×3 dilation of a mask (row-major `w × h`).
 pub(crate) fn dilate3(m: &[bool], w: usize, h: usize) -> Vec<bool> {
-    (0..w * h)
+    let v: Vec<f32> = m.par_iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
+    crate::math::max_filter3(&v, w, h)
         .into_par_iter()
-        .map(|i| {
-            let (x, y) = ((i % w) as i64, (i / w) as i64);
-            (-1..=1).any(|dy| {
-                (-1..=1).any(|dx| {
-                    let xx = x + dx;
-                    let yy = y + dy;
-                    xx >= 0
-                        && yy >= 0
-                        && xx < w as i64
-                        && yy < h as i64
-                        && m[yy as usize * w + xx as usize]
-                })
-            })
-        })
+        .map(|x| x > 0.0)
         .collect()
 }
 
@@ -145,26 +133,55 @@ pub(crate) const STOP_FLOOR_SHARE: f64 = 0.25;
 pub(crate) const BUDGET_CAP_SHARE: f64 = 2.0;
 
 /// Pixels below `floor` samples are raised to it in one step (never past `max_spp`), unless
-/// their ratio is exactly 0: no noise at all (every sample equal, in them and their 8
-/// neighbours). Pixels the tone curve clips at every grade keep the floor: the clipping is
-/// judged on pooled means, which a clipped light next to a dark pixel can mislead, and without
-/// the floor those pixels cost the holodeck its gains (FLIP p99 at −2 EV 0.99 / 1.10× →
-/// 0.83 / 0.84× at 64 / 128 spp).
+/// their ratio is 0: no noise at all (every sample equal, in them and their 8 neighbours), or
+/// noise below [`NEGLIGIBLE_NOISE_CONTRAST`]. Pixels whose `noise` (relative, from
+/// [`relative_noise`]) is within [`NEAR_NEGLIGIBLE_FACTOR`] of negligible approach the floor by
+/// doublings instead, judged again after each. Pixels the tone curve clips at every grade
+/// keep the floor: the clipping is judged on pooled means, which a clipped light next to a dark
+/// pixel can mislead, and without the floor those pixels cost the holodeck its gains (FLIP p99
+/// at −2 EV 0.99 / 1.10× → 0.83 / 0.84× at 64 / 128 spp).
+///
+/// [`NEGLIGIBLE_NOISE_CONTRAST`]: super::criterion::NEGLIGIBLE_NOISE_CONTRAST
+/// [`relative_noise`]: super::criterion::relative_noise
 pub(crate) fn raise_to_floor(
     alloc: &mut Allocation,
     film: &Film,
     ratio: &[f32],
+    noise: Option<&[f32]>,
     floor: u32,
     max_spp: u32,
 ) {
-    let floor = floor.min(max_spp);
     for (i, (c, px)) in alloc.want.iter_mut().zip(&film.pixels).enumerate() {
-        if px.n + *c < floor && ratio[i] > 0.0 {
-            *c = floor - px.n;
+        let target = floor.min(pass_cap(noise, i, px.n, max_spp));
+        if ratio[i] > 0.0 && px.n + *c < target {
+            *c = target - px.n;
             alloc.reopen[i] = true;
         }
     }
 }
+
+/// The most samples pixel `i`, now at `n`, may reach in this pass outside its own doublings:
+/// `max_spp`, or one doubling when its `noise` is within [`NEAR_NEGLIGIBLE_FACTOR`] of
+/// [`NEGLIGIBLE_NOISE_CONTRAST`].
+///
+/// [`NEGLIGIBLE_NOISE_CONTRAST`]: super::criterion::NEGLIGIBLE_NOISE_CONTRAST
+fn pass_cap(noise: Option<&[f32]>, i: usize, n: u32, max_spp: u32) -> u32 {
+    use super::criterion::NEGLIGIBLE_NOISE_CONTRAST;
+    if noise.is_some_and(|q| q[i] < NEAR_NEGLIGIBLE_FACTOR * NEGLIGIBLE_NOISE_CONTRAST) {
+        stratified_total(2 * n.max(1)).min(max_spp)
+    } else {
+        max_spp
+    }
+}
+
+/// Pixels whose relative noise is below this many times [`NEGLIGIBLE_NOISE_CONTRAST`] reach
+/// the floor by doublings, judged again after each, instead of in one step: the directly seen
+/// sky and environment sit there at 8 spp (their noise falls about as 1/n, the pixel filter's
+/// over smooth texels), and most turn negligible within one or two doublings, where the floor
+/// would have given them three quarters of the budget. Lit surfaces start at 5 % and more.
+///
+/// [`NEGLIGIBLE_NOISE_CONTRAST`]: super::criterion::NEGLIGIBLE_NOISE_CONTRAST
+pub(crate) const NEAR_NEGLIGIBLE_FACTOR: f32 = 8.0;
 
 /// Under a sample budget, once the threshold calls the converged fraction of pixels invisible:
 /// every pixel with any noise (ratio > 0) in `region` is raised to one common level, the
@@ -179,22 +196,27 @@ pub(crate) fn fill_to_level(
     alloc: &mut Allocation,
     film: &Film,
     ratio: &[f32],
+    noise: Option<&[f32]>,
     region: std::ops::Range<usize>,
     remaining: u64,
     max_spp: u32,
 ) {
     let spare = remaining.saturating_sub(alloc.total());
-    // (pixel, its total after `alloc`) of the pixels that can still take samples.
-    let open: Vec<(usize, u32)> = region
-        .map(|i| (i, film.pixels[i].n + alloc.want[i]))
-        .filter(|&(i, after)| ratio[i] > 0.0 && after < max_spp)
+    // (pixel, its total after `alloc`, the most it may reach) of the pixels that can still
+    // take samples.
+    let open: Vec<(usize, u32, u32)> = region
+        .map(|i| {
+            let n = film.pixels[i].n;
+            (i, n + alloc.want[i], pass_cap(noise, i, n, max_spp))
+        })
+        .filter(|&(i, after, cap)| ratio[i] > 0.0 && after < cap)
         .collect();
-    let Some(lowest) = open.iter().map(|&(_, after)| after).min() else {
+    let Some(lowest) = open.iter().map(|&(_, after, _)| after).min() else {
         return;
     };
     let cost = |level: u32| -> u64 {
         open.iter()
-            .map(|&(_, after)| level.min(max_spp).saturating_sub(after) as u64)
+            .map(|&(_, after, cap)| level.min(cap).saturating_sub(after) as u64)
             .sum()
     };
     let mut level = stratified_total(lowest + 1).min(max_spp);
@@ -205,9 +227,10 @@ pub(crate) fn fill_to_level(
         }
         level = next;
     }
-    for &(i, after) in &open {
-        if level > after {
-            alloc.want[i] += level - after;
+    for &(i, after, cap) in &open {
+        let to = level.min(cap);
+        if to > after {
+            alloc.want[i] += to - after;
             alloc.reopen[i] = true;
         }
     }
@@ -266,9 +289,29 @@ mod tests {
         };
         // Pixel 0 is below the floor with visible noise; pixel 1 has none; pixel 2 is above the
         // floor; pixel 3 already gets samples.
-        raise_to_floor(&mut a, &film, &[0.5, 0.0, 0.5, 2.0], 24, 4096);
+        raise_to_floor(&mut a, &film, &[0.5, 0.0, 0.5, 2.0], None, 24, 4096);
         assert_eq!(a.want, [16, 0, 0, 16]);
         assert!(a.reopen[0] && !a.reopen[1]);
+    }
+
+    #[test]
+    fn pixels_near_negligible_noise_approach_the_floor_by_doublings() {
+        let mut film = Film::new(3, 1);
+        for p in film.pixels.iter_mut() {
+            p.n = 8;
+        }
+        // Relative noise 5 % (a lit surface), 0.4 % (within 8× of negligible: one doubling),
+        // 0.05 % (negligible: the criterion has set its ratio to 0).
+        let noise = [0.05, 0.004, 0.0005];
+        let ratio = [0.5, 0.5, 0.0];
+        let mut a = nothing(3);
+        raise_to_floor(&mut a, &film, &ratio, Some(&noise), 96, 4096);
+        assert_eq!(a.want, [88, 8, 0]);
+        // The even fill stops the near pixel at a doubling too: 1000 spare samples take pixel 0
+        // to 768 (the next level, 1024, would cost 1016 + 8).
+        let mut b = nothing(3);
+        fill_to_level(&mut b, &film, &ratio, Some(&noise), 0..3, 1000, 4096);
+        assert_eq!(b.want, [760, 8, 0]);
     }
 
     fn nothing(n: usize) -> Allocation {
@@ -286,15 +329,15 @@ mod tests {
         }
         let mut a = nothing(4);
         // 100 samples reach 128 for pixels 0 and 3 (64), not 192 (192); pixel 1 has no noise.
-        fill_to_level(&mut a, &film, &[0.5, 0.0, 0.9, 0.2], 0..4, 100, 4096);
+        fill_to_level(&mut a, &film, &[0.5, 0.0, 0.9, 0.2], None, 0..4, 100, 4096);
         assert_eq!(a.want, [32, 0, 0, 32]);
         // Too little for any level: the next one, for fit_to_budget to scale down.
         let mut b = nothing(4);
-        fill_to_level(&mut b, &film, &[0.5, 0.0, 0.9, 0.2], 0..4, 10, 4096);
+        fill_to_level(&mut b, &film, &[0.5, 0.0, 0.9, 0.2], None, 0..4, 10, 4096);
         assert_eq!(b.want, [32, 0, 0, 32]);
         // Outside the region nothing moves.
         let mut c = nothing(4);
-        fill_to_level(&mut c, &film, &[0.5, 0.0, 0.9, 0.2], 0..2, 1000, 4096);
+        fill_to_level(&mut c, &film, &[0.5, 0.0, 0.9, 0.2], None, 0..2, 1000, 4096);
         assert_eq!(c.want[3], 0);
     }
 

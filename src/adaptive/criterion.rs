@@ -402,6 +402,43 @@ impl PerceptualCriterion {
     }
 }
 
+/// Relative noise below which no viewer sees a pixel's noise under any grade: a quarter of the
+/// eye's lowest contrast threshold, 1/S_peak ≈ 0.42 % (Daly 1993's CSF peaks at S ≈ 237, at
+/// 3.2 cpd and 100 cd/m², `docs/DESIGN.md` §5; it is less sensitive at every other frequency
+/// and luminance, and a noise's contrast in any band is at most its RMS contrast). Contrast is
+/// taken against the pixel's own channel mean, so the quarter leaves room for a pixel up to 4×
+/// brighter than the luminance the eye adapts to around it; no grade within the latitude
+/// raises a relative contrast (an exposure keeps it, the tone curves compress it). The pixels
+/// this selects are the directly seen sky and environment, whose only variance is the pixel
+/// filter's over the map's texels: 10⁻⁴–10⁻² at 8 spp, falling about as 1/n, against 5 % and
+/// more for every lit surface (Lost Empire, Mori knob, Cornell box, holodeck at 256²).
+pub(crate) const NEGLIGIBLE_NOISE_CONTRAST: f32 = 1e-3;
+
+/// Each pixel's relative noise (row-major): the largest over RGB channels of the half-buffers'
+/// half-difference over the channel's mean, and the largest over the pixel's 3×3
+/// neighbourhood, so that one pixel whose half-buffers agree by chance among noisy neighbours
+/// does not look noise-free. Infinite for a pixel with fewer than 2 samples or with noise in a
+/// channel of mean 0.
+pub(crate) fn relative_noise(film: &Film) -> Vec<f32> {
+    let own: Vec<f32> = film
+        .pixels
+        .par_iter()
+        .map(|p| {
+            if p.n < 2 {
+                return f32::INFINITY;
+            }
+            let (a, b, m) = (p.mean_even(), p.mean_odd(), p.mean());
+            (0..3)
+                .map(|c| {
+                    let d = 0.5 * (a[c] - b[c]).abs();
+                    if d == 0.0 { 0.0 } else { (d / m[c]) as f32 }
+                })
+                .fold(0.0, f32::max)
+        })
+        .collect();
+    crate::math::max_filter3(&own, film.width as usize, film.height as usize)
+}
+
 /// Radius of the neighbourhood whose noise level guards each pixel's estimate (7×7 pixels).
 const NEIGHBOURHOOD_RADIUS: usize = 3;
 
@@ -487,6 +524,31 @@ impl Criterion {
         }
     }
 
+    /// Each pixel's [`relative_noise`] for the perceptual criterion (`None` for the variance
+    /// criterion, which keeps Cycles' rule as it is).
+    pub fn relative_noise(&self, film: &Film) -> Option<Vec<f32>> {
+        match self {
+            Criterion::Perceptual(_) => Some(relative_noise(film)),
+            Criterion::Variance(_) => None,
+        }
+    }
+
+    /// The error ratio the allocation acts on: error / threshold, and 0 where the relative
+    /// noise is below [`NEGLIGIBLE_NOISE_CONTRAST`], as for a pixel without noise: no floor and
+    /// no share of an even fill. Uniform sampling spends a quarter of Lost Empire's budget on
+    /// its sky (23 % of the pixels at 256²), where no judge can see a difference.
+    pub fn ratio(judgement: &Judgement, noise: Option<&[f32]>) -> Vec<f32> {
+        let mut ratio = judgement.ratio();
+        if let Some(noise) = noise {
+            ratio.par_iter_mut().zip(noise).for_each(|(r, &q)| {
+                if q < NEGLIGIBLE_NOISE_CONTRAST {
+                    *r = 0.0;
+                }
+            });
+        }
+        ratio
+    }
+
     /// The mean spp at or above which the next judgement recomputes the threshold map (and
     /// so costs more than one that only updates the error); `None` when every judgement costs
     /// the same (the variance criterion) or none was made yet.
@@ -570,5 +632,55 @@ mod tests {
         let got = neighbourhood_ratio(&r, &counts, w, h)[3 * w + 3];
         let want = 2.0 * (48.0f32 / 49.0).sqrt();
         assert!((got - want).abs() < 1e-5, "{got} against {want}");
+    }
+
+    /// A 5×5 film whose pixels take `samples[i]` (alternately into half-buffers A and B).
+    fn film_of(samples: impl Fn(usize) -> Vec<glam::Vec3>) -> Film {
+        let mut film = Film::new(5, 5);
+        for (i, p) in film.pixels.iter_mut().enumerate() {
+            for v in samples(i) {
+                p.add(v);
+            }
+        }
+        film
+    }
+
+    #[test]
+    fn relative_noise_is_the_largest_channels_over_3x3_pixels() {
+        use glam::Vec3;
+        // Quiet pixels: half-buffers 1 and 1.0005 in green only, so a half-difference of
+        // 2.5e-4 of the channel's mean (1.00025); red and blue carry no noise.
+        let quiet = |_| vec![Vec3::new(0.5, 1.0, 2.0), Vec3::new(0.5, 1.0005, 2.0)];
+        let q = relative_noise(&film_of(quiet));
+        let want = 0.00025 / 1.00025;
+        assert!(q.iter().all(|&v| (v - want).abs() < 1e-6), "{q:?}");
+        assert!(q.iter().all(|&v| v < NEGLIGIBLE_NOISE_CONTRAST));
+        // A noisy pixel (blue half-buffers 2 and 3: 0.5 / 2.5 = 0.2) at (1, 1) makes its 3×3
+        // neighbourhood noisy, the rest stays quiet; a pixel whose half-buffers agree by chance
+        // among noisy neighbours (the centre of a noisy patch) is not negligible.
+        let one_noisy = |i| {
+            let mut v = quiet(i);
+            if i == 6 {
+                v[1].z = 3.0;
+            }
+            v
+        };
+        let q = relative_noise(&film_of(one_noisy));
+        for (i, &v) in q.iter().enumerate() {
+            let (x, y) = (i % 5, i / 5);
+            let near = x <= 2 && y <= 2;
+            assert_eq!(v > 0.1, near, "pixel ({x}, {y}): {v}");
+        }
+        let lucky_centre = |i| {
+            if i == 12 {
+                vec![Vec3::ONE, Vec3::ONE]
+            } else {
+                vec![Vec3::ONE, Vec3::splat(1.5)]
+            }
+        };
+        assert!(relative_noise(&film_of(lucky_centre))[12] > 0.1);
+        // One sample: no estimate, never negligible.
+        let q = relative_noise(&film_of(|_| vec![Vec3::ONE]));
+        assert!(q.iter().all(|v| v.is_infinite()));
     }
 }

@@ -34,7 +34,11 @@
 //!    budget B the sampler spends all of it: the perceptual sampler first lifts every pixel
 //!    with any noise to 3/4 of B (`allocate::FLOOR_SHARE`) in one pass, and once the
 //!    converged fraction is reached the rest of the budget is spread evenly
-//!    (`allocate::fill_to_level`): the model has no ranking left to act on.
+//!    (`allocate::fill_to_level`): the model has no ranking left to act on. Noise below
+//!    `criterion::NEGLIGIBLE_NOISE_CONTRAST` of a pixel's mean, a quarter of the eye's lowest
+//!    contrast threshold (the directly seen sky), counts as none: such a pixel gets neither
+//!    the floor nor a share of the fill, and one within 8× of it approaches them by
+//!    doublings (`allocate::NEAR_NEGLIGIBLE_FACTOR`).
 //!
 //! # The perceptual threshold
 //! ΔL_T(x) = ΔL_TVI(L_a(x)) · F(x). L_a is recomputed from the current image (a 1°
@@ -579,10 +583,11 @@ pub fn render_adaptive(
         let t0 = Instant::now();
         let refresh_before = criterion.next_refresh_spp();
         let (judgement, guide_time) = criterion.judge(scene, &st.film, s)?;
+        let noise = criterion.relative_noise(&st.film);
+        let ratio = Criterion::ratio(&judgement, noise.as_deref());
         let judged = t0.elapsed().saturating_sub(guide_time);
         st.decision_time += judged;
         cost.record(judged, criterion.next_refresh_spp() != refresh_before);
-        let ratio = judgement.ratio();
         let converged = st.report(&ratio, progress);
         let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
         let floor = pixel_floor(s, &st);
@@ -590,7 +595,7 @@ pub fn render_adaptive(
             // A converged stop first lifts the pixels left under the floor.
             let lifts = |f| {
                 let mut lift = Allocation::empty(st.film.len());
-                allocate::raise_to_floor(&mut lift, &st.film, &ratio, f, cap);
+                allocate::raise_to_floor(&mut lift, &st.film, &ratio, noise.as_deref(), f, cap);
                 st.clip(&mut lift);
                 lift.total() > 0
             };
@@ -600,7 +605,7 @@ pub fn render_adaptive(
         }
         let mut alloc = allocate(&st.film, &ratio, cap);
         if let Some(f) = floor {
-            allocate::raise_to_floor(&mut alloc, &st.film, &ratio, f, cap);
+            allocate::raise_to_floor(&mut alloc, &st.film, &ratio, noise.as_deref(), f, cap);
         }
         st.clip(&mut alloc);
         // Spread evenly once the model has no ranking left to act on, or when every pixel it
@@ -608,7 +613,15 @@ pub fn render_adaptive(
         if let Some(rem) =
             remaining.filter(|_| converged >= s.converged_fraction || alloc.total() == 0)
         {
-            allocate::fill_to_level(&mut alloc, &st.film, &ratio, st.region.clone(), rem, cap);
+            allocate::fill_to_level(
+                &mut alloc,
+                &st.film,
+                &ratio,
+                noise.as_deref(),
+                st.region.clone(),
+                rem,
+                cap,
+            );
         }
         if alloc.total() == 0 {
             let reason = if converged >= s.converged_fraction {
