@@ -603,26 +603,10 @@ pub fn render_adaptive(
                 break (judgement, reason);
             }
         }
-        let mut alloc = allocate(&st.film, &ratio, cap);
-        if let Some(f) = floor {
-            allocate::raise_to_floor(&mut alloc, &st.film, &ratio, noise.as_deref(), f, cap);
-        }
-        st.clip(&mut alloc);
         // Spread evenly once the model has no ranking left to act on, or when every pixel it
-        // still wants to sample is at the cap.
-        if let Some(rem) =
-            remaining.filter(|_| converged >= s.converged_fraction || alloc.total() == 0)
-        {
-            allocate::fill_to_level(
-                &mut alloc,
-                &st.film,
-                &ratio,
-                noise.as_deref(),
-                st.region.clone(),
-                rem,
-                cap,
-            );
-        }
+        // still wants to sample is at the cap (checked in `plan_pass`).
+        let fill = remaining.filter(|_| converged >= s.converged_fraction);
+        let mut alloc = plan_pass(&st, &ratio, noise.as_deref(), floor, (fill, remaining), cap);
         if alloc.total() == 0 {
             let reason = if converged >= s.converged_fraction {
                 StopReason::Converged
@@ -687,6 +671,32 @@ pub fn render_adaptive(
         wall: start.elapsed(),
         velocity,
     })
+}
+
+/// The next pass's allocation from the current ratios (and relative noise): the doublings
+/// above threshold ([`allocate`]), the floor, clipped to the rows this render owns; then, under
+/// a budget, the even fill of the samples left ([`allocate::fill_to_level`]) once the converged
+/// fraction is reached or when nothing else wants samples (every pixel the model still wants is
+/// at the cap). `remaining`: the samples left of the budget, if there is one;
+/// `fill`: the same once the converged fraction is reached.
+fn plan_pass(
+    st: &LoopState,
+    ratio: &[f32],
+    noise: Option<&[f32]>,
+    floor: Option<u32>,
+    (fill, remaining): (Option<u64>, Option<u64>),
+    cap: u32,
+) -> Allocation {
+    let mut alloc = allocate(&st.film, ratio, cap);
+    if let Some(f) = floor {
+        allocate::raise_to_floor(&mut alloc, &st.film, ratio, noise, f, cap);
+    }
+    st.clip(&mut alloc);
+    if let Some(rem) = fill.or_else(|| remaining.filter(|_| alloc.total() == 0)) {
+        let region = st.region.clone();
+        allocate::fill_to_level(&mut alloc, &st.film, ratio, noise, region, rem, cap);
+    }
+    alloc
 }
 
 /// Measured wall time of the two kinds of judgement, for sizing the last pass of a time budget.
