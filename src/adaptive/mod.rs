@@ -603,10 +603,8 @@ pub fn render_adaptive(
                 break (judgement, reason);
             }
         }
-        // Spread evenly once the model has no ranking left to act on, or when every pixel it
-        // still wants to sample is at the cap (checked in `plan_pass`).
-        let fill = remaining.filter(|_| converged >= s.converged_fraction);
-        let mut alloc = plan_pass(&st, &ratio, noise.as_deref(), floor, (fill, remaining), cap);
+        let done = converged >= s.converged_fraction;
+        let mut alloc = plan_pass(&st, &ratio, noise.as_deref(), floor, remaining, done, cap);
         if alloc.total() == 0 {
             let reason = if converged >= s.converged_fraction {
                 StopReason::Converged
@@ -675,16 +673,16 @@ pub fn render_adaptive(
 
 /// The next pass's allocation from the current ratios (and relative noise): the doublings
 /// above threshold ([`allocate`]), the floor, clipped to the rows this render owns; then, under
-/// a budget, the even fill of the samples left ([`allocate::fill_to_level`]) once the converged
-/// fraction is reached or when nothing else wants samples (every pixel the model still wants is
-/// at the cap). `remaining`: the samples left of the budget, if there is one;
-/// `fill`: the same once the converged fraction is reached.
+/// a budget (`remaining` samples left), the even fill ([`allocate::fill_to_level`]) once the
+/// converged fraction is reached (`converged`: the model has no ranking left to act on) or when
+/// nothing else wants samples (every pixel the model still wants is at the cap).
 fn plan_pass(
     st: &LoopState,
     ratio: &[f32],
     noise: Option<&[f32]>,
     floor: Option<u32>,
-    (fill, remaining): (Option<u64>, Option<u64>),
+    remaining: Option<u64>,
+    converged: bool,
     cap: u32,
 ) -> Allocation {
     let mut alloc = allocate(&st.film, ratio, cap);
@@ -692,7 +690,7 @@ fn plan_pass(
         allocate::raise_to_floor(&mut alloc, &st.film, ratio, noise, f, cap);
     }
     st.clip(&mut alloc);
-    if let Some(rem) = fill.or_else(|| remaining.filter(|_| alloc.total() == 0)) {
+    if let Some(rem) = remaining.filter(|_| converged || alloc.total() == 0) {
         let region = st.region.clone();
         allocate::fill_to_level(&mut alloc, &st.film, ratio, noise, region, rem, cap);
     }
