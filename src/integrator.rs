@@ -264,8 +264,9 @@ impl Integrator {
 
     /// Estimates the radiance arriving along `ray`.
     /// `rng` gives the path's canonical random numbers in order: per vertex the light choice
-    /// (1-D), the point on the light (2-D), the lobe choice (1-D), the direction (2-D), then
-    /// Russian roulette (1-D).
+    /// (1-D; passed over unless [`crate::light::Lights::chooses_with_own_sample`], the point's
+    /// first coordinate choosing otherwise), the point on the light (2-D), the lobe choice
+    /// (1-D), the direction (2-D), then Russian roulette (1-D).
     pub fn radiance(&self, scene: &Scene, mut ray: Ray, rng: &mut impl SampleSource) -> PathResult {
         let geo = &scene.geometry;
         let mut l = Vec3::ZERO;
@@ -330,7 +331,7 @@ impl Integrator {
 
             // Next-event estimation.
             let nee = !bsdf.is_delta() && self.strategy != Strategy::BsdfOnly;
-            let uc_light = rng.uniform_if(nee);
+            let uc_light = rng.uniform_if(nee && scene.lights.chooses_with_own_sample());
             let u_light = rng.uniform2_if(nee);
             if nee {
                 let at = Vertex {

@@ -618,3 +618,63 @@ fn assert_strategies_agree(scene: &Scene, spp: u32) {
         assert!(se < 0.02 * m0, "se {se} of {m0}");
     }
 }
+
+/// Without the light BVH the light is chosen by the first coordinate of the point's 2-D sample,
+/// remapped (as Mitsuba 3 does), so a stratified set of 2-D samples stays stratified over the
+/// whole emitter set: on the Cornell box's quad light (two triangles), 2^k points of a
+/// scrambled Sobol' (0,2)-sequence split between the triangles in proportion to their power to
+/// within one sample, at every power of two. A choice made by a separate number (`uc`, here
+/// fixed at 0, which alone would always pick the first triangle) fails this.
+#[test]
+fn light_choice_keeps_the_two_dimensional_sample_stratified() {
+    let scene = Scene::load(&repo("scenes/cornell-box/scene.toml")).unwrap();
+    let lights = &scene.lights;
+    assert!(!lights.chooses_with_own_sample());
+    assert_eq!(lights.tris.len(), 2);
+    let verts: Vec<[glam::Vec3; 3]> = lights
+        .tris
+        .iter()
+        .map(|&t| scene.geometry.world_vertices(t, 0.0))
+        .collect();
+    let area = |v: &[glam::Vec3; 3]| 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length();
+    let share0 = area(&verts[0]) / (area(&verts[0]) + area(&verts[1]));
+    // Barycentric containment, with a tolerance for points on the shared edge.
+    let inside = |v: &[glam::Vec3; 3], p: glam::Vec3| {
+        let n = (v[1] - v[0]).cross(v[2] - v[0]);
+        let edge = |a: glam::Vec3, b: glam::Vec3| {
+            (b - a).cross(p - a).dot(n) >= -1e-6 * n.length_squared()
+        };
+        edge(v[0], v[1]) && edge(v[1], v[2]) && edge(v[2], v[0])
+    };
+    let c = (verts[0][0] + verts[0][1] + verts[0][2]) / 3.0;
+    let p_ref = glam::Vec3::new(c.x, 1.0, c.z);
+    for seed in 0..4u64 {
+        let mut on0 = 0usize;
+        for i in 0..256u32 {
+            let u = aleph::sobol::shuffled_scrambled_sobol2d(i, seed);
+            let ls = lights
+                .sample(
+                    p_ref,
+                    glam::Vec3::Y,
+                    0.0,
+                    u,
+                    0.0,
+                    &scene.geometry,
+                    &scene.materials,
+                    &scene.textures,
+                )
+                .expect("the light faces the point");
+            let (a, b) = (inside(&verts[0], ls.p), inside(&verts[1], ls.p));
+            assert!(a || b, "sample {i} at {:?} is on neither triangle", ls.p);
+            on0 += (a && !b) as usize;
+            let n = i as usize + 1;
+            if n.is_power_of_two() && n >= 4 {
+                let want = share0 as f64 * n as f64;
+                assert!(
+                    (on0 as f64 - want).abs() <= 1.0,
+                    "seed {seed}: {on0} of the first {n} samples on triangle 0, want {want:.2}"
+                );
+            }
+        }
+    }
+}

