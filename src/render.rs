@@ -155,6 +155,40 @@ pub fn render_counts_seeded(
     }
 }
 
+/// Each pixel's measured cost: the wall time per camera sample, in seconds, of `spp` samples
+/// taken in it (rows in parallel, as a render runs; the radiance is discarded). Row-major,
+/// one value per pixel. A measurement of this machine, not deterministic: it feeds
+/// reports (the wall-time ceiling of `aleph speedup`), never an image.
+pub fn pixel_costs(scene: &Scene, strategy: Strategy, spp: u32) -> Vec<f32> {
+    let integrator = Integrator {
+        max_depth: scene.settings.max_depth,
+        strategy,
+    };
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let seed = scene.frame_seed();
+    let mut cost = vec![0f32; w * h];
+    cost.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let (mut rays, mut nonfinite) = (0u64, 0u64);
+        for (x, c) in row.iter_mut().enumerate() {
+            let mut px = PixelStats::default();
+            let t = Instant::now();
+            sample_pixel(
+                scene,
+                &integrator,
+                seed,
+                x as u32,
+                y as u32,
+                &mut px,
+                spp,
+                &mut rays,
+                &mut nonfinite,
+            );
+            *c = t.elapsed().as_secs_f32() / spp.max(1) as f32;
+        }
+    });
+    cost
+}
+
 /// Renders `spp` samples in every pixel into a new film (one pass, progress reported per row).
 pub fn render_uniform(
     scene: &Scene,

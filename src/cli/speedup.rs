@@ -239,24 +239,34 @@ fn report(sw: &Sweep, args: &SpeedupArgs, scene: &str) -> String {
         );
         let _ = writeln!(
             s,
-            "| budget spp | ceiling speedup, FLIP mean | ceiling speedup, FLIP p99 |"
+            "| budget spp | ceiling speedup, FLIP mean | ceiling speedup, FLIP p99 | ceiling speedup in wall time, FLIP mean |"
         );
-        let _ = writeln!(s, "|---|---|---|");
+        let _ = writeln!(s, "|---|---|---|---|");
         for (b, c) in ceilings {
-            let _ = writeln!(s, "| {b} | {:.2}× | {:.2}× |", c.mean, c.p99);
+            let time = c.time_mean.map_or("—".into(), |t| format!("{t:.2}×"));
+            let _ = writeln!(s, "| {b} | {:.2}× | {:.2}× | {time} |", c.mean, c.p99);
         }
+        let _ = writeln!(
+            s,
+            "\nIn wall time: each pixel's cost per sample timed over {} samples, and the allocation that reaches uniform's FLIP mean in the least time, n_i ∝ (a_i / c_i)^(1/(1+β)) (Cochran 1977, §5.5). Where samples cost alike it equals the ceiling in samples; where some pixels' samples are cheap (a directly seen sky), uniform spends little time on them and the ceiling in time is lower.",
+            aleph::speedup::COST_SPP
+        );
     }
     if !sw.oracle.is_empty() {
         let _ = writeln!(
             s,
-            "\n## Against the oracle\n\nSpearman rank correlation of the perceptual sampler's samples per pixel with the oracle's allocation at the displayed exposure (from the same per-pixel fits: n_i ∝ a_i^(1/(1+β)) for FLIP mean, a_i^(1/β) for FLIP p99, one ranking); maps side by side in `oracle/Bspp.png` (oracle for the mean, for p99, aleph's; log scale from budget/8 to 8 × budget):\n\n| budget spp | rank correlation with the oracle |\n|---|---|"
+            "\n## Against the oracle\n\nSpearman rank correlation of the perceptual sampler's samples per pixel with the oracle's allocation at the displayed exposure (from the same per-pixel fits: n_i ∝ a_i^(1/(1+β)) for FLIP mean, a_i^(1/β) for FLIP p99, one ranking); maps side by side in `oracle/Bspp.png` (oracle for the mean, for p99, aleph's; log scale from budget/8 to 8 × budget). The time per sample of each allocation, relative to uniform's, from the pixels' measured costs: above 1, the allocation's wall time falls short of its sample savings by that factor.\n\n| budget spp | rank correlation with the oracle | time per sample, aleph's allocation | time per sample, FLIP-mean oracle's |\n|---|---|---|---|"
         );
         for o in &sw.oracle {
             let rank = match o.rank {
                 Some(r) => format!("{r:.3}"),
                 None => "— (every pixel the same count: rendered uniformly)".into(),
             };
-            let _ = writeln!(s, "| {} | {rank} |", o.budget);
+            let (ca, co) = match o.cost {
+                Some((a, b)) => (format!("{a:.3}×"), format!("{b:.3}×")),
+                None => ("—".into(), "—".into()),
+            };
+            let _ = writeln!(s, "| {} | {rank} | {ca} | {co} |", o.budget);
         }
     }
     if let Some(stop) = &sw.stop {

@@ -18,8 +18,8 @@
 mod sweep;
 
 pub use sweep::{
-    Arm, OracleRow, Row, STOP_IMAGE, SpeedupError, Sweep, SweepSpec, frame_key, frame_list,
-    frames_csv_header, grade_dir, image_path, reference_key, sweep,
+    Arm, COST_SPP, OracleRow, Row, STOP_IMAGE, SpeedupError, Sweep, SweepSpec, frame_key,
+    frame_list, frames_csv_header, grade_dir, image_path, reference_key, sweep,
 };
 
 use crate::display::FrozenToneMap;
@@ -291,6 +291,60 @@ pub struct Ceiling {
     pub mean: f64,
     /// Ceiling speedup for FLIP p99.
     pub p99: f64,
+    /// Ceiling speedup in wall time for FLIP mean, given each pixel's measured cost per sample
+    /// ([`time_ceiling`]); `None` without a cost map.
+    pub time_mean: Option<f64>,
+}
+
+/// The ceiling speedup in wall time at equal FLIP mean: uniform's time at budget `n` over the
+/// least time any allocation needs to reach uniform's mean error, with pixel i's error
+/// a_i n_i^−β (`beta`, `a`, as [`flip_coefficients`] fits) and its cost c_i seconds per
+/// sample (`cost`, e.g. [`crate::render::pixel_costs`]). Minimising Σ c_i n_i at
+/// Σ a_i n_i^−β fixed gives n_i = k (a_i / c_i)^(1/(1+β)) (the optimum allocation with
+/// variable cost per unit of stratified sampling, Cochran 1977, *Sampling Techniques*, §5.5,
+/// with error falling as n^−β instead of n^−1), and k follows in closed form: the error is
+/// k^−β S with S = Σ a_i^(1/(1+β)) c_i^(β/(1+β)), and the time k S. Pixels with a_i = 0 cost
+/// nothing in the optimum and n c_i in uniform. Equal costs give the FLIP-mean
+/// [`Ceiling::mean`] in samples. Costs are clamped to 1 ns.
+///
+/// # Panics
+/// If `a` and `cost` differ in length.
+pub fn time_ceiling(beta: f64, a: &[f64], cost: &[f32], n: f64) -> f64 {
+    assert_eq!(a.len(), cost.len());
+    let c = |i: usize| (cost[i] as f64).max(1e-9);
+    let e = 1.0 / (1.0 + beta);
+    let (mut err_u, mut time_u, mut s) = (0.0, 0.0, 0.0);
+    for (i, &ai) in a.iter().enumerate() {
+        time_u += n * c(i);
+        if ai > 0.0 {
+            err_u += ai * n.powf(-beta);
+            s += ai.powf(e) * c(i).powf(beta * e);
+        }
+    }
+    if err_u <= 0.0 {
+        return 1.0;
+    }
+    let k = (s / err_u).powf(1.0 / beta);
+    time_u / (k * s)
+}
+
+/// Time per sample of an allocation (`counts[i]` samples in pixel i) relative to a uniform
+/// one's, from each pixel's cost per sample: (Σ c_i n_i / Σ n_i) / mean(c_i). Above 1 the
+/// allocation's samples are dearer than uniform's, so its wall time falls short of its
+/// sample savings.
+///
+/// # Panics
+/// If the lengths differ.
+pub fn relative_sample_cost(counts: &[f32], cost: &[f32]) -> f64 {
+    assert_eq!(counts.len(), cost.len());
+    let n: f64 = counts.iter().map(|&v| v as f64).sum();
+    let weighted: f64 = counts
+        .iter()
+        .zip(cost)
+        .map(|(&v, &c)| v as f64 * c as f64)
+        .sum();
+    let mean_c = cost.iter().map(|&c| c as f64).sum::<f64>() / cost.len() as f64;
+    weighted / n.max(1e-300) / mean_c.max(1e-300)
 }
 
 /// Per-pixel FLIP coefficients from two uniform renders' 5×5-filtered FLIP maps (`n_lo`,
@@ -367,9 +421,20 @@ pub fn rank_correlation(x: &[f32], y: &[f32]) -> f64 {
 }
 
 /// Fits the ceiling from two uniform renders' 5×5-filtered FLIP maps (`n_lo`, `map_lo`),
-/// (`n_hi`, `map_hi`), evaluated at budget `n`.
-pub fn ceiling(n_lo: f64, map_lo: &[f32], n_hi: f64, map_hi: &[f32], n: f64) -> Option<Ceiling> {
+/// (`n_hi`, `map_hi`), evaluated at budget `n`; with `cost` (seconds per sample per pixel)
+/// also in wall time ([`time_ceiling`]).
+pub fn ceiling(
+    n_lo: f64,
+    map_lo: &[f32],
+    n_hi: f64,
+    map_hi: &[f32],
+    n: f64,
+    cost: Option<&[f32]>,
+) -> Option<Ceiling> {
     let (beta, a) = flip_coefficients(n_lo, map_lo, n_hi, map_hi)?;
+    let time_mean = cost
+        .filter(|c| c.len() == a.len())
+        .map(|c| time_ceiling(beta, &a, c, n));
     let a: Vec<f64> = a.into_iter().filter(|&a| a > 0.0).collect();
     if a.is_empty() {
         return None;
@@ -408,6 +473,7 @@ pub fn ceiling(n_lo: f64, map_lo: &[f32], n_hi: f64, map_hi: &[f32], n: f64) -> 
         beta,
         mean: n / hi,
         p99: n / need.max(1e-9),
+        time_mean,
     })
 }
 
@@ -461,7 +527,7 @@ mod tests {
         let map = |n: f64| -> Vec<f32> {
             (0..1000).map(|i| if i < 500 { 4.0 * n.powf(-0.5) } else { n.powf(-0.5) } as f32).collect()
         };
-        let c = ceiling(lo, &map(lo), hi, &map(hi), 16.0).unwrap();
+        let c = ceiling(lo, &map(lo), hi, &map(hi), 16.0, None).unwrap();
         assert!((c.beta - 0.5).abs() < 1e-9);
         assert!((c.p99 - 16.0 / 8.5).abs() < 1e-6, "{c:?}");
         // Mean-optimal: weights 2.52 and 1; at budget B, n = 2B·w/(w1 + w2).
@@ -479,6 +545,52 @@ mod tests {
         };
         assert!((c.mean - expected).abs() < 1e-6, "{} vs {expected}", c.mean);
         assert!(c.mean > 1.0 && c.mean < 1.2);
+    }
+
+    #[test]
+    fn time_ceiling_against_a_brute_force_two_pixel_search() {
+        // Two pixels with errors a_i n^-β and costs c_i per sample. Uniform at n = 100 has mean
+        // error 0.5 (a_1 + a_2) 100^-β and time 100 (c_1 + c_2). The cheapest allocation with the
+        // same mean error, found by scanning n_1 (n_2 then follows from the error) in 10⁶ steps,
+        // must match the closed form.
+        let brute = |beta: f64, a: [f64; 2], c: [f64; 2]| {
+            let n = 100.0f64;
+            let err = 0.5 * (a[0] + a[1]) * n.powf(-beta);
+            let mut best = f64::INFINITY;
+            for k in 1..1_000_000 {
+                let n1 = k as f64 * 1e-3;
+                let rest = 2.0 * err - a[0] * n1.powf(-beta);
+                if rest <= 0.0 {
+                    continue;
+                }
+                let n2 = (rest / a[1]).powf(-1.0 / beta);
+                best = best.min(c[0] * n1 + c[1] * n2);
+            }
+            n * (c[0] + c[1]) / best
+        };
+        for (beta, a, c) in [
+            (0.5, [1.0, 1.0], [1.0, 4.0]),
+            (0.33, [3.0, 1.0], [1.0, 12.0]),
+            (0.5, [4.0, 1.0], [2.0, 2.0]),
+        ] {
+            let got = time_ceiling(beta, &a, &[c[0] as f32, c[1] as f32], 100.0);
+            let want = brute(beta, a, c);
+            assert!(
+                (got - want).abs() < 1e-4 * want,
+                "β {beta}, a {a:?}, c {c:?}: {got} vs {want}"
+            );
+            assert!(got >= 1.0 - 1e-9);
+        }
+        // Equal costs: the time ceiling is the sample ceiling of `ceiling` for FLIP mean.
+        let map = |n: f64| -> Vec<f32> {
+            (0..1000).map(|i| if i < 500 { 4.0 * n.powf(-0.5) } else { n.powf(-0.5) } as f32).collect()
+        };
+        let cost = vec![1e-6f32; 1000];
+        let c = ceiling(4.0, &map(4.0), 64.0, &map(64.0), 16.0, Some(&cost)).unwrap();
+        let t = c.time_mean.unwrap();
+        assert!((t - c.mean).abs() < 1e-6, "{t} vs {}", c.mean);
+        // One sample at cost 1 and three at cost 3: 10 / 4 per sample against a mean cost of 2.
+        assert!((relative_sample_cost(&[1.0, 3.0], &[1.0, 3.0]) - 1.25).abs() < 1e-12);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 
 use super::{
     Ceiling, GRADES_EV, Judge, Scores, ceiling, flip_coefficients, oracle_allocations,
-    rank_correlation,
+    rank_correlation, relative_sample_cost,
 };
 use crate::adaptive::{AdaptiveSettings, SamplerKind, render_adaptive};
 use crate::display::FrozenToneMap;
@@ -10,7 +10,7 @@ use crate::film::Film;
 use crate::integrator::Strategy;
 use crate::output::false_colour;
 use crate::output::{AtomicOutputs, ChannelData, OutputError, write_exr, write_png};
-use crate::render::render_uniform;
+use crate::render::{pixel_costs, render_uniform};
 use crate::scene::{Scene, SceneDescription};
 use crate::sequence::AdaptationCourse;
 use perception::tmo::Operator;
@@ -383,7 +383,14 @@ pub struct OracleRow {
     /// pixels by a_i, so one number serves both); `None` when every pixel has the same count
     /// (a budget under `steer_from_spp`, rendered uniformly), which has no ranking.
     pub rank: Option<f64>,
+    /// Time per sample, relative to a uniform allocation's, of the perceptual sampler's
+    /// allocation and of the FLIP-mean oracle's ([`relative_sample_cost`]); `None` without a
+    /// cost map.
+    pub cost: Option<(f64, f64)>,
 }
+
+/// Samples per pixel timed for the cost map of a sweep's ceiling in wall time.
+pub const COST_SPP: u32 = 16;
 
 /// Errors of a sweep.
 #[derive(Debug, thiserror::Error)]
@@ -424,6 +431,8 @@ struct SweepState {
     floor: Acc,
     per_frame: String,
     uniform_maps: Vec<(f64, Vec<f32>)>,
+    /// The first frame's measured cost per sample of each pixel ([`pixel_costs`]).
+    cost: Option<Vec<f32>>,
     /// The perceptual sampler's samples per pixel at each budget (first frame).
     perceptual_counts: Vec<(f64, Vec<f32>)>,
     /// The perceptual sampler's own stop, summed over frames.
@@ -481,6 +490,7 @@ pub fn sweep(
         floor: Acc::default(),
         per_frame: format!("{}\n", frames_csv_header()),
         uniform_maps: Vec::new(),
+        cost: None,
         perceptual_counts: Vec::new(),
         stop: Acc::default(),
         view: base.tone.view,
@@ -494,6 +504,14 @@ pub fn sweep(
         tone.operator = operator;
         tone.luminance_scale = scene.settings.luminance_scale;
         tone.adaptation_state = course.as_ref().zip(frame).map(|(c, f)| c.state_at(f));
+        if k == 0 {
+            let t = Instant::now();
+            st.cost = Some(pixel_costs(&scene, Strategy::Mis, COST_SPP));
+            log(&format!(
+                "pixel costs: {COST_SPP} spp per pixel timed in {:.2} s",
+                t.elapsed().as_secs_f64()
+            ));
+        }
         let key = frame_key(&scene_key, frame);
         let ref_path = dir.join(format!("reference-{key}.exr"));
         let reference = reference_for(&ref_scene, &ref_path, spec.reference_spp, log)?;
@@ -525,7 +543,9 @@ pub fn sweep(
         let (lo, hi) = (&maps[1], &maps[maps.len() - 1]);
         spec.budgets
             .iter()
-            .filter_map(|&b| ceiling(lo.0, &lo.1, hi.0, &hi.1, b).map(|c| (b, c)))
+            .filter_map(|&b| {
+                ceiling(lo.0, &lo.1, hi.0, &hi.1, b, st.cost.as_deref()).map(|c| (b, c))
+            })
             .collect()
     } else {
         Vec::new()
@@ -533,7 +553,14 @@ pub fn sweep(
     let oracle = if maps.len() >= 3 {
         let (lo, hi) = (&maps[1], &maps[maps.len() - 1]);
         let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-        oracle_sheets(lo, hi, &st.perceptual_counts, (w, h), dir)?
+        oracle_sheets(
+            lo,
+            hi,
+            &st.perceptual_counts,
+            st.cost.as_deref(),
+            (w, h),
+            dir,
+        )?
     } else {
         Vec::new()
     };
@@ -560,6 +587,7 @@ fn oracle_sheets(
     lo: &(f64, Vec<f32>),
     hi: &(f64, Vec<f32>),
     counts: &[(f64, Vec<f32>)],
+    cost: Option<&[f32]>,
     (w, h): (usize, usize),
     dir: &Path,
 ) -> Result<Vec<OracleRow>, SpeedupError> {
@@ -576,6 +604,12 @@ fn oracle_sheets(
                 .iter()
                 .any(|&c| c != aleph[0])
                 .then(|| rank_correlation(&mean, aleph)),
+            cost: cost.map(|c| {
+                (
+                    relative_sample_cost(aleph, c),
+                    relative_sample_cost(&mean, c),
+                )
+            }),
         });
         let (lo_v, hi_v) = (*budget as f32 / 8.0, *budget as f32 * 8.0);
         let panels: Vec<Vec<u8>> = [&mean, &p99, aleph]
