@@ -75,6 +75,31 @@ pub fn box_mean(v: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
     box_mean_interleaved(v, w, h, 1, r)
 }
 
+/// Median over the (2r+1) × (2r+1) window around each pixel of a row-major `w × h` image (the
+/// window cut at the borders; of an even count, the upper middle value). Unlike [`box_mean`]
+/// it ignores isolated outliers, such as one pixel's time inflated by a stall of the machine.
+///
+/// # Panics
+/// If `v.len() != w · h`.
+pub fn median_filter(v: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
+    use rayon::prelude::*;
+    assert_eq!(v.len(), w * h, "median_filter: buffer is not {w}×{h}");
+    (0..w * h)
+        .into_par_iter()
+        .map_init(Vec::new, |win: &mut Vec<f32>, i| {
+            let (x, y) = (i % w, i / w);
+            win.clear();
+            for yy in y.saturating_sub(r)..(y + r + 1).min(h) {
+                win.extend_from_slice(
+                    &v[yy * w + x.saturating_sub(r)..yy * w + (x + r + 1).min(w)],
+                );
+            }
+            let mid = win.len() / 2;
+            *win.select_nth_unstable_by(mid, f32::total_cmp).1
+        })
+        .collect()
+}
+
 /// Largest value over the 3×3 window around each pixel of a row-major `w × h` image (the
 /// window cut at the borders).
 ///
@@ -174,6 +199,37 @@ mod tests {
     use super::*;
     use crate::rng::Rng;
     use crate::sampling::square_to_uniform_sphere;
+
+    #[test]
+    fn median_filter_removes_spikes_and_keeps_edges() {
+        // A step edge (left half 1, right half 5) with two one-pixel spikes: the 5×5 median
+        // gives back the step exactly, spikes gone.
+        let (w, h) = (12, 9);
+        let step = |i: usize| if i % w < w / 2 { 1.0f32 } else { 5.0 };
+        let mut v: Vec<f32> = (0..w * h).map(step).collect();
+        v[4 * w + 2] = 1000.0;
+        v[w + 9] = -300.0;
+        let m = median_filter(&v, w, h, 2);
+        for (i, &got) in m.iter().enumerate() {
+            assert_eq!(got, step(i), "pixel ({}, {})", i % w, i / w);
+        }
+        // Against a direct sort of each window on a pseudo-random image, corners included.
+        let mut rng = Rng::new(7, 0);
+        let v: Vec<f32> = (0..w * h).map(|_| rng.uniform()).collect();
+        let m = median_filter(&v, w, h, 1);
+        for y in 0..h {
+            for x in 0..w {
+                let mut win = Vec::new();
+                for yy in y.saturating_sub(1)..(y + 2).min(h) {
+                    for xx in x.saturating_sub(1)..(x + 2).min(w) {
+                        win.push(v[yy * w + xx]);
+                    }
+                }
+                win.sort_by(f32::total_cmp);
+                assert_eq!(m[y * w + x], win[win.len() / 2]);
+            }
+        }
+    }
 
     #[test]
     fn separable_box_mean_equals_the_direct_window_sum() {

@@ -156,9 +156,11 @@ pub fn render_counts_seeded(
 }
 
 /// Each pixel's measured cost: the wall time per camera sample, in seconds, of `spp` samples
-/// taken in it (rows in parallel, as a render runs; the radiance is discarded). Row-major,
-/// one value per pixel. A measurement of this machine, not deterministic: it feeds
-/// reports (the wall-time ceiling of `aleph speedup`), never an image.
+/// taken in it (rows in parallel, as a render runs; the radiance is discarded), in
+/// [`COST_PASSES`] passes over the image so that a stall of the machine lands on different
+/// pixels' shares rather than on whole rows. Row-major, one value per pixel. A measurement of
+/// this machine, not deterministic: it feeds reports (the wall-time ceiling of
+/// `aleph speedup`), never an image.
 pub fn pixel_costs(scene: &Scene, strategy: Strategy, spp: u32) -> Vec<f32> {
     let integrator = Integrator {
         max_depth: scene.settings.max_depth,
@@ -166,28 +168,42 @@ pub fn pixel_costs(scene: &Scene, strategy: Strategy, spp: u32) -> Vec<f32> {
     };
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     let seed = scene.frame_seed();
-    let mut cost = vec![0f32; w * h];
-    cost.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let (mut rays, mut nonfinite) = (0u64, 0u64);
-        for (x, c) in row.iter_mut().enumerate() {
-            let mut px = PixelStats::default();
-            let t = Instant::now();
-            sample_pixel(
-                scene,
-                &integrator,
-                seed,
-                x as u32,
-                y as u32,
-                &mut px,
-                spp,
-                &mut rays,
-                &mut nonfinite,
-            );
-            *c = t.elapsed().as_secs_f32() / spp.max(1) as f32;
-        }
-    });
-    cost
+    let mut pixels = vec![PixelStats::default(); w * h];
+    let mut seconds = vec![0f64; w * h];
+    let passes = COST_PASSES.min(spp.max(1));
+    for p in 0..passes {
+        let count = spp.max(1) * (p + 1) / passes - spp.max(1) * p / passes;
+        pixels
+            .par_chunks_mut(w)
+            .zip(seconds.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(y, (row, secs))| {
+                let (mut rays, mut nonfinite) = (0u64, 0u64);
+                for (x, (px, t_px)) in row.iter_mut().zip(secs.iter_mut()).enumerate() {
+                    let t = Instant::now();
+                    sample_pixel(
+                        scene,
+                        &integrator,
+                        seed,
+                        x as u32,
+                        y as u32,
+                        px,
+                        count,
+                        &mut rays,
+                        &mut nonfinite,
+                    );
+                    *t_px += t.elapsed().as_secs_f64();
+                }
+            });
+    }
+    seconds
+        .iter()
+        .map(|&t| (t / spp.max(1) as f64) as f32)
+        .collect()
 }
+
+/// Passes over the image of [`pixel_costs`].
+pub const COST_PASSES: u32 = 4;
 
 /// Renders `spp` samples in every pixel into a new film (one pass, progress reported per row).
 pub fn render_uniform(
