@@ -168,11 +168,12 @@ pub fn pixel_costs(scene: &Scene, strategy: Strategy, spp: u32) -> Vec<f32> {
     };
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     let seed = scene.frame_seed();
+    let spp = spp.max(1);
     let mut pixels = vec![PixelStats::default(); w * h];
     let mut seconds = vec![0f64; w * h];
-    let passes = COST_PASSES.min(spp.max(1));
+    let passes = COST_PASSES.min(spp);
     for p in 0..passes {
-        let count = spp.max(1) * (p + 1) / passes - spp.max(1) * p / passes;
+        let count = spp * (p + 1) / passes - spp * p / passes;
         pixels
             .par_chunks_mut(w)
             .zip(seconds.par_chunks_mut(w))
@@ -196,10 +197,7 @@ pub fn pixel_costs(scene: &Scene, strategy: Strategy, spp: u32) -> Vec<f32> {
                 }
             });
     }
-    seconds
-        .iter()
-        .map(|&t| (t / spp.max(1) as f64) as f32)
-        .collect()
+    seconds.iter().map(|&t| (t / spp as f64) as f32).collect()
 }
 
 /// Passes over the image of [`pixel_costs`].
