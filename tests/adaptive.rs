@@ -389,6 +389,24 @@ fn speedup_runs_end_to_end_on_a_tiny_scene() {
     );
     assert!(table.contains("Against the oracle"), "{table}");
     assert!(out.join("oracle").join("8spp.png").exists());
+    // The ceiling in wall time and each allocation's time per sample, from the cost map: a
+    // ratio on every row (uniformly rendered budgets cost exactly 1.000× uniform).
+    assert!(
+        table.contains("ceiling speedup in wall time, FLIP mean"),
+        "{table}"
+    );
+    let rows_8: Vec<&str> = table
+        .lines()
+        .skip_while(|l| !l.starts_with("## Ceiling"))
+        .filter(|l| l.starts_with("| 8 |"))
+        .collect();
+    assert_eq!(rows_8.len(), 2, "{table}");
+    assert!(
+        !rows_8[0].contains('—') && rows_8[0].matches('×').count() == 3,
+        "{rows_8:?}"
+    );
+    // Budgets under the steering threshold are rendered uniformly: exactly uniform's cost.
+    assert!(rows_8[1].contains("| 1.000× |"), "{rows_8:?}");
     let plot = image::open(out.join("speedup.png")).unwrap();
     assert_eq!((plot.width(), plot.height()), (1200, 900));
     assert!(
