@@ -107,7 +107,9 @@ pub fn power_heuristic(pdf_f: f32, pdf_g: f32) -> f32 {
 /// its cumulative distribution (binary search, O(log n)).
 #[derive(Clone, Debug)]
 pub struct Distribution1D {
-    weights: Vec<f32>,
+    /// Probability of each item, weight / total (in f64, then rounded), kept so that sampling
+    /// does not divide.
+    pmf: Vec<f32>,
     /// Normalised CDF, `cdf[0] = 0`, `cdf[n] = 1`.
     cdf: Vec<f32>,
     total: f64,
@@ -135,7 +137,7 @@ impl Distribution1D {
         }
         *cdf.last_mut().unwrap() = 1.0;
         Some(Distribution1D {
-            weights,
+            pmf: weights.iter().map(|&w| (w as f64 / acc) as f32).collect(),
             cdf,
             total: acc,
         })
@@ -143,12 +145,12 @@ impl Distribution1D {
 
     /// Number of items.
     pub fn len(&self) -> usize {
-        self.weights.len()
+        self.pmf.len()
     }
 
     /// Always false: an empty distribution cannot be built.
     pub fn is_empty(&self) -> bool {
-        self.weights.is_empty()
+        self.pmf.is_empty()
     }
 
     /// Sum of the weights.
@@ -159,7 +161,7 @@ impl Distribution1D {
     /// Probability of item `i`.
     #[inline]
     pub fn pmf(&self, i: usize) -> f32 {
-        (self.weights[i] as f64 / self.total) as f32
+        self.pmf[i]
     }
 
     /// Samples an item for `u` in [0,1): returns the item and its probability. Items with zero
@@ -167,7 +169,7 @@ impl Distribution1D {
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32) {
         // First index with cdf[i+1] > u.
-        let n = self.weights.len();
+        let n = self.pmf.len();
         let mut lo = 0usize;
         let mut hi = n - 1;
         while lo < hi {
@@ -180,10 +182,10 @@ impl Distribution1D {
         }
         // Skip zero-weight items that a rounding tie could land on.
         let mut i = lo;
-        while self.weights[i] == 0.0 && i + 1 < n {
+        while self.pmf[i] == 0.0 && i + 1 < n {
             i += 1;
         }
-        while self.weights[i] == 0.0 && i > 0 {
+        while self.pmf[i] == 0.0 && i > 0 {
             i -= 1;
         }
         (i, self.pmf(i))
@@ -211,7 +213,7 @@ impl Distribution1D {
         } else {
             0.5
         };
-        let n = self.weights.len() as f32;
+        let n = self.pmf.len() as f32;
         let x = ((i as f32 + du) / n).min(1.0 - f32::EPSILON / 2.0);
         (x, pmf * n, i)
     }
@@ -219,7 +221,7 @@ impl Distribution1D {
     /// The density at x ∈ [0, 1) of [`Distribution1D::sample_continuous`].
     #[inline]
     pub fn density(&self, x: f32) -> f32 {
-        let n = self.weights.len();
+        let n = self.pmf.len();
         let i = ((x * n as f32) as usize).min(n - 1);
         self.pmf(i) * n as f32
     }
