@@ -196,9 +196,16 @@ impl Distribution1D {
     #[inline]
     pub fn sample_remap(&self, u: f32) -> (usize, f32, f32) {
         let (i, pmf) = self.sample(u);
+        (i, pmf, self.remap(i, u))
+    }
+
+    /// `u` remapped to [0, 1) within item `i`'s share of the CDF, for the item `u` chose
+    /// ([`Distribution1D::sample_remap`]).
+    #[inline]
+    pub fn remap(&self, i: usize, u: f32) -> f32 {
         let (c0, c1) = (self.cdf[i], self.cdf[i + 1]);
         let r = if c1 > c0 { (u - c0) / (c1 - c0) } else { 0.5 };
-        (i, pmf, r.clamp(0.0, 1.0 - f32::EPSILON))
+        r.clamp(0.0, 1.0 - f32::EPSILON)
     }
 
     /// Samples the piecewise-constant density on [0, 1) whose n equal cells carry the weights:

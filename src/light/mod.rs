@@ -284,8 +284,10 @@ impl Lights {
         self.tree.is_some()
     }
 
-    /// Chooses a light for point `p` with normal `n` from the light BVH: (light number,
-    /// probability). Without the BVH the choice is made in [`Lights::sample`].
+    /// Chooses a light for point `p` with normal `n` with the number `uc`: (light number,
+    /// probability). With the light BVH, the infinite lights and the tree by power, then a
+    /// light in the tree by importance; without it, by power ([`Lights::sample`] passes the
+    /// point's first coordinate as `uc` then).
     #[inline]
     fn choose(&self, p: Vec3, n: Vec3, uc: f32) -> Option<(usize, f32)> {
         match &self.tree {
@@ -338,12 +340,12 @@ impl Lights {
         materials: &[Material],
         textures: &[Texture],
     ) -> Option<LightSample> {
-        let (li, pmf, u) = if self.tree.is_some() {
+        let (li, pmf, u) = if self.chooses_with_own_sample() {
             let (li, pmf) = self.choose(p_ref, n_ref, uc)?;
             (li, pmf, u)
         } else {
-            let (li, pmf, x) = self.dist.sample_remap(u.x);
-            (li, pmf, Vec2::new(x, u.y))
+            let (li, pmf) = self.choose(p_ref, n_ref, u.x)?;
+            (li, pmf, Vec2::new(self.dist.remap(li, u.x), u.y))
         };
         if li < self.tris.len() {
             return self.sample_triangle(li, pmf, p_ref, u, time, geo, materials, textures);
