@@ -504,7 +504,8 @@ pub fn sweep(
         tone.operator = operator;
         tone.luminance_scale = scene.settings.luminance_scale;
         tone.adaptation_state = course.as_ref().zip(frame).map(|(c, f)| c.state_at(f));
-        if k == 0 {
+        // Only a sweep with a ceiling (three uniform budgets or more) uses the cost map.
+        if k == 0 && spec.budgets.len() >= 3 {
             let t = Instant::now();
             // The median over 5 × 5 pixels: a single pixel's time over 16 paths is mostly
             // noise (two Cornell-box maps correlate at 0.09) and stalls of the machine put
