@@ -195,12 +195,18 @@ impl Texture {
         let (fx, fy) = (x - x0, y - y0);
         let wrap = |i: i64, n: usize| i.rem_euclid(n as i64) as usize;
         let (xi, yi) = (x0 as i64, y0 as i64);
-        let t = |dx: i64, dy: i64| {
-            self.texels
-                .get(wrap(yi + dy, self.height) * self.width + wrap(xi + dx, self.width))
+        let at =
+            |dx: i64, dy: i64| wrap(yi + dy, self.height) * self.width + wrap(xi + dx, self.width);
+        let corners = [at(0, 0), at(1, 0), at(0, 1), at(1, 1)];
+        // One match on the storage for the four texels, not one per texel.
+        let [t00, t10, t01, t11] = match &self.texels {
+            Texels::Linear(t) => corners.map(|i| t[i]),
+            Texels::Bytes { codes, decode } => corners.map(|i| {
+                let [r, g, b] = codes[i];
+                Vec3::new(decode[r as usize], decode[g as usize], decode[b as usize])
+            }),
         };
-        (t(0, 0) * (1.0 - fx) + t(1, 0) * fx) * (1.0 - fy)
-            + (t(0, 1) * (1.0 - fx) + t(1, 1) * fx) * fy
+        (t00 * (1.0 - fx) + t10 * fx) * (1.0 - fy) + (t01 * (1.0 - fx) + t11 * fx) * fy
     }
 }
 
