@@ -83,9 +83,9 @@ pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut impl SampleSource) -> Vec3 
         let Some(hit) = scene.geometry.intersect(&ray) else {
             return weight * capped(scene.lights.infinite_radiance(ray.d, |_| 1.0));
         };
-        let tri = &scene.geometry.tris[hit.tri as usize];
-        let material = &scene.materials[tri.material as usize];
-        if tri.light != u32::MAX && -ray.d.dot(hit.ng) > 0.0 {
+        let tris = &scene.geometry.tris;
+        let material = &scene.materials[tris.material(hit.tri as usize) as usize];
+        if tris.light(hit.tri as usize) != u32::MAX && -ray.d.dot(hit.ng) > 0.0 {
             return weight * capped(material.emitted(hit.uv, &scene.textures));
         }
         let bsdf = material.bsdf(hit.uv, &scene.textures);
@@ -134,9 +134,9 @@ fn shading_normal(
         return hit.ns;
     };
     let geo = &scene.geometry;
-    let t = &geo.tris[hit.tri as usize];
+    let uv = geo.tris.uvs(hit.tri as usize);
     let v = geo.world_vertices(hit.tri, time);
-    let (duv1, duv2) = (t.uv[1] - t.uv[0], t.uv[2] - t.uv[0]);
+    let (duv1, duv2) = (uv[1] - uv[0], uv[2] - uv[0]);
     let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
     let det = duv1.x * duv2.y - duv1.y * duv2.x;
     if det.abs() < 1e-20 {
@@ -285,12 +285,12 @@ impl Integrator {
                 l += beta * self.escaped(scene, ray.d, prev_delta, prev_pdf);
                 break;
             };
-            let tri = &geo.tris[hit.tri as usize];
-            let material = &scene.materials[tri.material as usize];
+            let tri = hit.tri as usize;
+            let material = &scene.materials[geo.tris.material(tri) as usize];
             let wo_world = -ray.d;
 
             // Emission seen along the ray (one-sided: front face only).
-            if tri.light != u32::MAX && wo_world.dot(hit.ng) > 0.0 {
+            if geo.tris.light(tri) != u32::MAX && wo_world.dot(hit.ng) > 0.0 {
                 let le = material.emitted(hit.uv, &scene.textures);
                 let w = if prev_delta {
                     1.0

@@ -32,7 +32,7 @@ fn cornell_box_materials_and_light() {
     // The light quad's two triangles are the only emitters, and they face down (−y).
     assert_eq!(s.lights.len(), 2);
     for &t in &s.lights.tris {
-        assert!(s.geometry.tris[t as usize].geometric_normal().y < -0.99);
+        assert!(s.geometry.tris.get(t as usize).geometric_normal().y < -0.99);
     }
 }
 

@@ -20,7 +20,7 @@ pub use analytic::{PointLight, SUN_ANGULAR_DIAMETER_DEG, Sun};
 pub use bvh::{LightBounds, LightBvh};
 pub use environment::Environment;
 
-use crate::geometry::{Geometry, TriangleAttributes};
+use crate::geometry::{Geometry, Triangles};
 use crate::material::Material;
 use crate::sampling::{Distribution1D, square_to_uniform_triangle};
 use crate::texture::Texture;
@@ -108,7 +108,7 @@ impl Lights {
     /// is the radius of a sphere bounding the scene (world units; for the power of infinite
     /// lights). Returns `None` if nothing emits.
     pub fn build(
-        tris: &mut [TriangleAttributes],
+        tris: &mut Triangles,
         materials: &[Material],
         textures: &[Texture],
         other: OtherLights,
@@ -117,8 +117,9 @@ impl Lights {
     ) -> Option<Lights> {
         let mut ids = Vec::new();
         let mut powers: Vec<f64> = Vec::new();
-        for (i, t) in tris.iter_mut().enumerate() {
-            t.light = u32::MAX;
+        for i in 0..tris.len() {
+            tris.set_light(i, u32::MAX);
+            let t = tris.get(i);
             let m = &materials[t.material as usize];
             let Some(e) = &m.emission else { continue };
             let y = crate::math::luminance(e.mean(textures).max(Vec3::ZERO));
@@ -126,7 +127,7 @@ impl Lights {
             // tiny one underflows it; such lights must not silently vanish.
             let p64 = y as f64 * t.area() as f64 * std::f64::consts::PI;
             if p64 > 0.0 && p64.is_finite() {
-                t.light = ids.len() as u32;
+                tris.set_light(i, ids.len() as u32);
                 ids.push(i as u32);
                 powers.push(p64);
             }
@@ -163,8 +164,9 @@ impl Lights {
         let shapes = ids
             .iter()
             .map(|&i| {
-                let t = &tris[i as usize];
-                (t.instance == crate::geometry::STATIC_INSTANCE).then(|| triangle_shape(t.p))
+                let i = i as usize;
+                (tris.instance(i) == crate::geometry::STATIC_INSTANCE)
+                    .then(|| triangle_shape(tris.positions(i)))
             })
             .collect();
         Some(Lights {
@@ -179,7 +181,7 @@ impl Lights {
     /// The light BVH over triangles, point and spot lights (by relative power `weights`, in
     /// light order), and the power choice among the infinite lights and the BVH.
     fn tree(
-        tris: &[TriangleAttributes],
+        tris: &Triangles,
         ids: &[u32],
         other: &OtherLights,
         weights: &[f32],
@@ -187,7 +189,7 @@ impl Lights {
         let n_inf = other.environment.is_some() as usize + other.suns.len();
         let mut items: Vec<(u32, LightBounds)> = Vec::new();
         for (li, &tri) in ids.iter().enumerate() {
-            let t = &tris[tri as usize];
+            let t = tris.get(tri as usize);
             let (lo, hi) = (
                 t.p[0].min(t.p[1]).min(t.p[2]),
                 t.p[0].max(t.p[1]).max(t.p[2]),
@@ -406,7 +408,6 @@ impl Lights {
         textures: &[Texture],
     ) -> Option<LightSample> {
         let tri = self.tris[li];
-        let t = &geo.tris[tri as usize];
         let (v, n, area) = self.shape(li, geo, tri, time);
         let b = square_to_uniform_triangle(u);
         let b0 = 1.0 - b.x - b.y;
@@ -422,8 +423,9 @@ impl Lights {
         if cos_l <= 1e-7 {
             return None; // back of a one-sided emitter, or grazing
         }
-        let uv = t.uv[0] * b.x + t.uv[1] * b.y + t.uv[2] * b0;
-        let le = materials[t.material as usize].emitted(uv, textures);
+        let (uvs, material) = (geo.tris.uvs(tri as usize), geo.tris.material(tri as usize));
+        let uv = uvs[0] * b.x + uvs[1] * b.y + uvs[2] * b0;
+        let le = materials[material as usize].emitted(uv, textures);
         let pdf = pmf / area * dist2 / cos_l;
         Some(LightSample {
             p,
@@ -471,7 +473,7 @@ impl Lights {
         (p_ref, n_ref): (Vec3, Vec3),
         p_light: Vec3,
     ) -> f32 {
-        let light = geo.tris[tri as usize].light;
+        let light = geo.tris.light(tri as usize);
         if light == u32::MAX {
             return 0.0;
         }

@@ -7,7 +7,9 @@ use crate::animation::{
 };
 use crate::camera::Camera;
 use crate::error::{SceneError, SceneResult};
-use crate::geometry::{AlphaMask, Cutouts, Geometry, STATIC_INSTANCE, TriangleAttributes};
+use crate::geometry::{
+    AlphaMask, Cutouts, Geometry, STATIC_INSTANCE, TriangleAttributes, Triangles,
+};
 use crate::light::Lights;
 use crate::material::{ColorSource, Material, MaterialKind};
 use crate::texture::{BumpKind, BumpMap, Texture, looks_like_normal_map};
@@ -636,18 +638,13 @@ impl SceneDescription {
     }
 
     /// Every moving mesh stays within ±[`MAX_COORDINATE`] at its keys.
-    fn check_motion_extent(
-        &self,
-        tris: &[TriangleAttributes],
-        tracks: &[TransformTrack],
-    ) -> SceneResult<()> {
+    fn check_motion_extent(&self, tris: &Triangles, tracks: &[TransformTrack]) -> SceneResult<()> {
         for (i, track) in tracks.iter().enumerate() {
             for key in track.keys() {
                 let m = track.at(key.time_s);
-                let far = tris
-                    .iter()
-                    .filter(|t| t.instance == i as u32)
-                    .flat_map(|t| t.p)
+                let far = (0..tris.len())
+                    .filter(|&k| tris.instance(k) == i as u32)
+                    .flat_map(|k| tris.positions(k))
                     .map(|p| m.transform_point3(p))
                     .any(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE);
                 if far {
@@ -1143,9 +1140,9 @@ fn warn_ignored_mtl(mtl: &Path, materials: &[tobj::Material]) {
 
 /// Half the diagonal of the box around every vertex (rest-space positions for moving meshes):
 /// the radius of a sphere that holds the scene, for the power of lights at infinity.
-fn bounding_radius(tris: &[TriangleAttributes]) -> f32 {
+fn bounding_radius(tris: &Triangles) -> f32 {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for p in tris.iter().flat_map(|t| t.p) {
+    for p in (0..tris.len()).flat_map(|i| tris.positions(i)) {
         lo = lo.min(p);
         hi = hi.max(p);
     }
@@ -1158,7 +1155,7 @@ fn bounding_radius(tris: &[TriangleAttributes]) -> f32 {
 /// Builds the BVHs, turning a panic inside the BVH library into an error (the scene is
 /// validated first, so this is a last line of defence, silent on stderr).
 fn build_geometry(
-    tris: Vec<TriangleAttributes>,
+    tris: Triangles,
     tracks: Vec<TransformTrack>,
     time_range: (f32, f32),
 ) -> Result<Geometry, String> {
@@ -1203,7 +1200,7 @@ impl ObjectFilter<'_> {
 
 #[derive(Default)]
 struct Builder {
-    tris: Vec<TriangleAttributes>,
+    tris: Triangles,
     materials: Vec<Material>,
     material_index: HashMap<String, u32>,
     textures: Vec<Texture>,
@@ -1536,6 +1533,7 @@ impl Builder {
         let has_n = mesh.normals.len() == mesh.positions.len() && !mesh.normals.is_empty();
         let has_uv =
             mesh.texcoords.len() / 2 == mesh.positions.len() / 3 && !mesh.texcoords.is_empty();
+        self.tris.reserve(mesh.indices.len() / 3, has_n, has_uv);
         for (f, idx) in mesh.indices.chunks_exact(3).enumerate() {
             let p = [pos(idx[0]), pos(idx[1]), pos(idx[2])];
             if p.iter().any(|v| !v.is_finite()) {
