@@ -129,24 +129,27 @@ impl Triangles {
     /// # Panics
     /// With 2³² − 1 triangles having normals or texture coordinates.
     pub fn push(&mut self, t: TriangleAttributes) {
-        let out_of_line = |present: bool, len: usize| -> u32 {
-            if !present {
-                return ABSENT;
-            }
+        // The index the next entry of an out-of-line array of `len` entries gets.
+        let next = |len: usize| -> u32 {
             u32::try_from(len)
                 .ok()
                 .filter(|&i| i != ABSENT)
                 .expect("fewer than 2^32 - 1 triangles with normals or coordinates")
         };
-        let n = out_of_line(t.n.is_some(), self.normals.len());
-        if let Some(normals) = t.n {
-            self.normals.push(normals);
-        }
+        let n = match t.n {
+            Some(normals) => {
+                let i = next(self.normals.len());
+                self.normals.push(normals);
+                i
+            }
+            None => ABSENT,
+        };
         let uv = if t.uv == [Vec2::ZERO; 3] {
             0
         } else {
+            let i = next(self.uvs.len());
             self.uvs.push(t.uv);
-            out_of_line(true, self.uvs.len() - 1)
+            i
         };
         self.stored.push(StoredTriangle {
             p: t.p,
