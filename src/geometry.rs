@@ -103,14 +103,6 @@ struct StoredTriangle {
 const ABSENT: u32 = u32::MAX;
 
 impl Triangles {
-    /// An empty set with room for `n` triangles.
-    pub fn with_capacity(n: usize) -> Triangles {
-        Triangles {
-            stored: Vec::with_capacity(n),
-            ..Default::default()
-        }
-    }
-
     /// Reserves room for `n` more triangles, with room for their normals and texture
     /// coordinates where the flags say they have them (one allocation per array instead of a
     /// doubling series, whose freed blocks the allocator would keep).
@@ -222,16 +214,12 @@ impl Triangles {
     pub fn is_empty(&self) -> bool {
         self.stored.is_empty()
     }
-
-    /// Every triangle's attributes, in id order.
-    pub fn iter(&self) -> impl ExactSizeIterator<Item = TriangleAttributes> + '_ {
-        (0..self.len()).map(|i| self.get(i))
-    }
 }
 
 impl From<Vec<TriangleAttributes>> for Triangles {
     fn from(v: Vec<TriangleAttributes>) -> Triangles {
-        let mut t = Triangles::with_capacity(v.len());
+        let mut t = Triangles::default();
+        t.reserve(v.len(), true, true);
         for a in v {
             t.push(a);
         }

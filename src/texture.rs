@@ -46,12 +46,15 @@ impl Texels {
     fn get(&self, i: usize) -> Vec3 {
         match self {
             Texels::Linear(t) => t[i],
-            Texels::Bytes { codes, decode } => {
-                let [r, g, b] = codes[i];
-                Vec3::new(decode[r as usize], decode[g as usize], decode[b as usize])
-            }
+            Texels::Bytes { codes, decode } => byte_texel(codes[i], decode),
         }
     }
+}
+
+/// The linear value of an 8-bit texel through its texture's decode table.
+#[inline(always)]
+fn byte_texel([r, g, b]: [u8; 3], decode: &[f32; 256]) -> Vec3 {
+    Vec3::new(decode[r as usize], decode[g as usize], decode[b as usize])
 }
 
 /// The linear value of each 8-bit code: the `image` crate's own conversion to `f32` (so a byte
@@ -201,10 +204,7 @@ impl Texture {
         // One match on the storage for the four texels, not one per texel.
         let [t00, t10, t01, t11] = match &self.texels {
             Texels::Linear(t) => corners.map(|i| t[i]),
-            Texels::Bytes { codes, decode } => corners.map(|i| {
-                let [r, g, b] = codes[i];
-                Vec3::new(decode[r as usize], decode[g as usize], decode[b as usize])
-            }),
+            Texels::Bytes { codes, decode } => corners.map(|i| byte_texel(codes[i], decode)),
         };
         (t00 * (1.0 - fx) + t10 * fx) * (1.0 - fy) + (t01 * (1.0 - fx) + t11 * fx) * fy
     }
