@@ -17,6 +17,10 @@ SRC = os.path.join(ROOT, "scenes", "lost-empire")
 OUT = os.path.join(ROOT, "target", "peer", "lost-empire-bench")
 
 CAMERA = dict(position=[30.0, 48.0, 62.0], look_at=[-2.0, 22.0, 0.0], up=[0.0, 1.0, 0.0], vfov=50.0)
+# Inside a roofed hall of the same world (about 13 × 13 blocks, ceiling 4.5 blocks above the eye),
+# lit only through its openings: most light arrives after several bounces, as in an interior.
+INTERIOR_CAMERA = dict(position=[35.5, 21.6, -37.5], look_at=[24.0, 21.0, -26.0], up=[0.0, 1.0, 0.0], vfov=70.0)
+VIEWS = {"exterior": CAMERA, "interior": INTERIOR_CAMERA}
 SUN_DIRECTION = [-0.6, 0.55, 0.45]
 SUN_IRRADIANCE = [3.0, 2.8, 2.5]
 SKY = [0.5, 0.6, 0.8]
@@ -60,11 +64,12 @@ def write_files():
     return obj
 
 
-def aleph_toml(res, spp_hint=16):
-    """aleph's scene file for the benchmark at width `res[0]` × height `res[1]`."""
+def aleph_toml(res, spp_hint=16, view="exterior"):
+    """aleph's scene file for the benchmark at width `res[0]` × height `res[1]`, seen from
+    `view` (a key of ``VIEWS``)."""
     obj = write_files()
-    path = os.path.join(OUT, f"scene-{res[0]}x{res[1]}.toml")
-    c = CAMERA
+    path = os.path.join(OUT, f"scene-{view}-{res[0]}x{res[1]}.toml")
+    c = VIEWS[view]
     with open(path, "w") as f:
         f.write(
             f"[camera]\nposition = {c['position']}\nlook_at = {c['look_at']}\nup = {c['up']}\n"
@@ -78,10 +83,11 @@ def aleph_toml(res, spp_hint=16):
     return path
 
 
-def mitsuba_dict(mi, res, max_depth):
-    """Mitsuba's scene dictionary (`max_depth` in Mitsuba's count: bounces + 1)."""
+def mitsuba_dict(mi, res, max_depth, view="exterior"):
+    """Mitsuba's scene dictionary (`max_depth` in Mitsuba's count: bounces + 1), seen from
+    `view` (a key of ``VIEWS``)."""
     obj = write_files()
-    c = CAMERA
+    c = VIEWS[view]
     return {
         "type": "scene",
         "integrator": {"type": "path", "max_depth": max_depth},

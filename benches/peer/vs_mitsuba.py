@@ -7,21 +7,27 @@ creates ``benches/peer/.venv`` with mitsuba, numpy and flip-evaluator, and insta
 
     benches/peer/.venv/bin/python benches/peer/vs_mitsuba.py [--variant llvm_ad_rgb]
         [--res 256] [--spp 16 64] [--rounds 5] [--max-depth 8] [--ref-spp 8192]
+        [--scenes cornell lost-empire lost-empire-interior]
 
-Two scenes (``--scenes``): the bundled Cornell box (McGuire's OBJ, the same camera, lights,
+Three scenes (``--scenes``): the bundled Cornell box (McGuire's OBJ, the same camera, lights,
 depth and box filter in both renderers), scored against one common Mitsuba reference
 (``--ref-spp``, cached in ``target/peer/``); and the bundled Lost Empire (225k triangles, its
 texture atlas on one Lambertian material under a constant sky and a sun, as
 ``textured_scene.py`` writes it for both), 320×200, where each renderer is scored against its
 own ``--textured-ref-spp`` reference (their means agree to 5 digits, but texture filtering
-need not agree texel by texel). For each scene and budget it alternates aleph (``render --sampler uniform``, the
+need not agree texel by texel); and an interior of the same Lost Empire scene (a roofed hall
+lit through its openings, where most light arrives after several bounces), 320×200, scored
+against one common reference, the mean of both renderers' ``--interior-ref-spp`` renders, and
+scored at the exposure that takes that reference's mean luminance to 0.18 (at exposure 0 the
+hall's mean is 0.004, and relMSE's 0.01 in the denominator would make it an absolute MSE). For each scene and budget it alternates aleph (``render --sampler uniform``, the
 render time from its own summary) and Mitsuba (``mi.render`` timed after a warm-up, so the
 LLVM kernel compile is not counted) for ``--rounds`` rounds. Each image is scored against the
 reference by relMSE (mean of (x − r)² / (r² + 0.01), per channel) and FLIP (mean, 67 ppd,
-via ``flip-evaluator`` on the sRGB images at exposure 0). For Monte Carlo noise relMSE falls as
+via ``flip-evaluator`` on the sRGB images at exposure 0; the interior at its own, above). For Monte Carlo noise relMSE falls as
 1/time, so each renderer's efficiency is 1 / (relMSE × time), and FLIP (an amplitude) as
 1/sqrt(time), giving 1 / (FLIP² × time); the ratio aleph/Mitsuba > 1 means aleph reaches equal
-error sooner. Prints a table and writes ``target/peer/vs_mitsuba.csv``.
+error sooner. Prints the CPU (Mitsuba's LLVM variant vectorises to its widest SIMD, so the ratios
+depend on it), a table, and writes ``target/peer/vs_mitsuba.csv``.
 """
 import argparse, csv, os, re, subprocess, sys, tempfile, time
 
@@ -87,7 +93,7 @@ def mitsuba_reference(scene, spp, path):
 
 def setup(name, args, tmp):
     """(Mitsuba scene, aleph scene file, resolution, reference for aleph, reference for
-    Mitsuba) of benchmark scene `name`."""
+    Mitsuba, FLIP exposure) of benchmark scene `name`."""
     import mitsuba_cornell as mc
     import textured_scene as ts
     # Mitsuba's path tracer counts depth as vertices from the camera (max_depth = bounces + 1).
@@ -95,36 +101,65 @@ def setup(name, args, tmp):
         res = (args.res, args.res)
         scene = mi.load_dict(mc.aleph_box(args.res, args.max_depth + 1, tmp))
         ref = mitsuba_reference(scene, args.ref_spp, os.path.join(OUT, f"ref-{args.res}-{args.max_depth}-{args.ref_spp}.exr"))
-        return scene, SCENE, res, ref, ref
+        return scene, SCENE, res, ref, ref, 1.0
+    view = "interior" if name == "lost-empire-interior" else "exterior"
     res = (args.res * 5 // 4, args.res * 25 // 32)
-    scene = mi.load_dict(ts.mitsuba_dict(mi, res, args.max_depth + 1))
-    toml = ts.aleph_toml(res)
-    tag = f"{res[0]}x{res[1]}-{args.max_depth}-{args.textured_ref_spp}"
-    ref_m = mitsuba_reference(scene, args.textured_ref_spp, os.path.join(OUT, f"ref-lost-empire-mitsuba-{tag}.exr"))
-    ref_a_path = os.path.join(OUT, f"ref-lost-empire-aleph-{tag}.exr")
+    ref_spp = args.interior_ref_spp if view == "interior" else args.textured_ref_spp
+    scene = mi.load_dict(ts.mitsuba_dict(mi, res, args.max_depth + 1, view))
+    toml = ts.aleph_toml(res, view=view)
+    tag = f"{res[0]}x{res[1]}-{args.max_depth}-{ref_spp}"
+    ref_m = mitsuba_reference(scene, ref_spp, os.path.join(OUT, f"ref-{name}-mitsuba-{tag}.exr"))
+    ref_a_path = os.path.join(OUT, f"ref-{name}-aleph-{tag}.exr")
     if not os.path.exists(ref_a_path):
-        img, _ = aleph_render(toml, args.textured_ref_spp, res, args.max_depth, 10_000, tmp)
+        img, _ = aleph_render(toml, ref_spp, res, args.max_depth, 10_000, tmp)
         mi.Bitmap(np.ascontiguousarray(img, dtype=np.float32)).write(ref_a_path)
-    return scene, toml, res, read_exr_rgb(ref_a_path), ref_m
+    ref_a = read_exr_rgb(ref_a_path)
+    if view == "exterior":
+        return scene, toml, res, ref_a, ref_m, 1.0
+    # The interior: one common reference, the mean of the two renderers' (their noise then
+    # weighs on both alike), scored at the exposure that takes its mean luminance to 0.18 (at
+    # exposure 0 it is so dark that relMSE's 0.01 would make it an absolute MSE).
+    ref = 0.5 * (ref_a + ref_m)
+    y = float(np.mean(ref @ np.array([0.2126, 0.7152, 0.0722])))
+    print(f"{name}: reference means aleph {ref_a.mean():.5f}, mitsuba {ref_m.mean():.5f}; "
+          f"FLIP exposure x{0.18 / y:.2f}", flush=True)
+    return scene, toml, res, ref, ref, 0.18 / y
+
+
+def cpu_description():
+    """This machine's CPU model and widest SIMD (the vectorised variant's lane count follows it)."""
+    model, flags = "unknown CPU", set()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name") and model == "unknown CPU":
+                    model = line.split(":", 1)[1].strip()
+                elif line.startswith("flags") and not flags:
+                    flags = set(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    simd = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "SSE/NEON"
+    return f"{model}, {os.cpu_count()} logical CPUs, widest SIMD {simd}"
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--variant", default="llvm_ad_rgb")
-    ap.add_argument("--scenes", nargs="+", default=["cornell", "lost-empire"], choices=["cornell", "lost-empire"])
+    ap.add_argument("--scenes", nargs="+", default=["cornell", "lost-empire", "lost-empire-interior"], choices=["cornell", "lost-empire", "lost-empire-interior"])
     ap.add_argument("--res", type=int, default=256)
     ap.add_argument("--spp", type=int, nargs="+", default=[16, 64])
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--max-depth", type=int, default=8)
     ap.add_argument("--ref-spp", type=int, default=8192)
     ap.add_argument("--textured-ref-spp", type=int, default=2048)
+    ap.add_argument("--interior-ref-spp", type=int, default=4096)
     args = ap.parse_args()
     mi.set_variant(args.variant)
     os.makedirs(OUT, exist_ok=True)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.scenes:
-            scene, toml, res, ref_a, ref_m = setup(name, args, tmp)
+            scene, toml, res, ref_a, ref_m, k = setup(name, args, tmp)
             np.array(mi.render(scene, spp=4))  # compile the kernel
             for spp in args.spp:
                 for r in range(args.rounds):
@@ -133,8 +168,8 @@ def main():
                     img_m = np.array(mi.render(scene, spp=spp, seed=100 + r))[:, :, :3]
                     t_m = time.perf_counter() - t0
                     row = dict(scene=name, spp=spp, round=r, aleph_s=t_a, mitsuba_s=t_m,
-                               aleph_relmse=rel_mse(img_a, ref_a), mitsuba_relmse=rel_mse(img_m, ref_m),
-                               aleph_flip=flip_mean(img_a, ref_a), mitsuba_flip=flip_mean(img_m, ref_m))
+                               aleph_relmse=rel_mse(k * img_a, k * ref_a), mitsuba_relmse=rel_mse(k * img_m, k * ref_m),
+                               aleph_flip=flip_mean(k * img_a, k * ref_a), mitsuba_flip=flip_mean(k * img_m, k * ref_m))
                     row["eff_relmse"] = (row["mitsuba_relmse"] * t_m) / (row["aleph_relmse"] * t_a)
                     row["eff_flip"] = (row["mitsuba_flip"] ** 2 * t_m) / (row["aleph_flip"] ** 2 * t_a)
                     rows.append(row)
@@ -145,8 +180,10 @@ def main():
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         w.writeheader()
         w.writerows(rows)
-    print(f"\nmitsuba {mi.__version__} {args.variant}, depth {args.max_depth}; Cornell box {args.res}² against a "
-          f"{args.ref_spp}-spp Mitsuba reference, Lost Empire each against its own {args.textured_ref_spp}-spp reference")
+    print(f"\n{cpu_description()}")
+    print(f"mitsuba {mi.__version__} {args.variant}, depth {args.max_depth}; Cornell box {args.res}² against a "
+          f"{args.ref_spp}-spp Mitsuba reference, Lost Empire each against its own {args.textured_ref_spp}-spp reference, "
+          f"its interior against the mean of both renderers' {args.interior_ref_spp}-spp references")
     print("scene | spp | aleph s | mitsuba s | samples/s ratio | relMSE aleph | relMSE mitsuba | eq-relMSE advantage | eq-FLIP advantage (medians)")
     for name in args.scenes:
         for spp in args.spp:
