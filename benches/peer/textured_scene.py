@@ -5,8 +5,9 @@ Mitsuba 3 render the same way, for ``vs_mitsuba.py``.
 What the two renderers cannot share exactly is left out: every material becomes one two-sided
 Lambertian reflector textured by the RGB atlas (bilinear, repeat; no alpha cut-outs, no glass,
 no emission), lit by a constant sky and a sun. aleph's sun is a disc of 0.01° (it needs a
-diameter > 0) and Mitsuba's a ``directional`` light: both one shadow ray per vertex. Files go to
-``target/peer/lost-empire-bench/``.
+diameter > 0) and Mitsuba's a ``directional`` light: both one shadow ray per vertex. Two views
+(``VIEWS``): the exterior seen from above, and an interior, a roofed hall lit through its
+openings. Files go to ``target/peer/lost-empire-bench/``.
 """
 import os
 import shutil
