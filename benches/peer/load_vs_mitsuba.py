@@ -18,6 +18,8 @@ Prints medians.
 """
 import argparse, os, re, statistics, subprocess, sys
 
+import machine  # beside this file
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.normpath(os.path.join(HERE, "..", ".."))
 OUT = os.path.join(ROOT, "target", "peer")
@@ -94,6 +96,7 @@ def main():
     cases = [("1M-triangle heightfield", scene_toml, big),
              ("lost-empire (225k; aleph with its textures, Mitsuba positions only)",
               os.path.join(ROOT, "scenes", "lost-empire", "scene.toml"), lost)]
+    print(machine.cpu_description(), flush=True)
     for name, toml, obj in cases:
         a_load, a_bvh, a_rss, m_load, m_rss = [], [], [], [], []
         for _ in range(args.rounds):

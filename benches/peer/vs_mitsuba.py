@@ -37,6 +37,7 @@ import mitsuba as mi
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.normpath(os.path.join(HERE, "..", ".."))
 sys.path.insert(0, HERE)
+import machine  # noqa: E402 (beside this file)
 OUT = os.path.join(ROOT, "target", "peer")
 ALEPH = os.path.join(ROOT, "target", "release", "aleph")
 SCENE = os.path.join(ROOT, "scenes", "cornell-box", "scene.toml")
@@ -126,22 +127,6 @@ def setup(name, args, tmp):
     return scene, toml, res, ref, ref, 0.18 / y
 
 
-def cpu_description():
-    """This machine's CPU model and widest SIMD (the vectorised variant's lane count follows it)."""
-    model, flags = "unknown CPU", set()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name") and model == "unknown CPU":
-                    model = line.split(":", 1)[1].strip()
-                elif line.startswith("flags") and not flags:
-                    flags = set(line.split(":", 1)[1].split())
-    except OSError:
-        pass
-    simd = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "SSE/NEON"
-    return f"{model}, {os.cpu_count()} logical CPUs, widest SIMD {simd}"
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--variant", default="llvm_ad_rgb")
@@ -180,7 +165,7 @@ def main():
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         w.writeheader()
         w.writerows(rows)
-    print(f"\n{cpu_description()}")
+    print(f"\n{machine.cpu_description()}")
     print(f"mitsuba {mi.__version__} {args.variant}, depth {args.max_depth}; Cornell box {args.res}² against a "
           f"{args.ref_spp}-spp Mitsuba reference, Lost Empire each against its own {args.textured_ref_spp}-spp reference, "
           f"its interior against the mean of both renderers' {args.interior_ref_spp}-spp references")
