@@ -11,6 +11,7 @@ mod diff;
 mod farm;
 mod furnace;
 mod fuzz;
+mod golden;
 mod lights;
 mod reference;
 mod scenes;

@@ -1,0 +1,361 @@
+//! Golden images: every bundled scene, rendered by the CLI with each sampling rule, as a
+//! sequence, as sample parts merged and as row tiles merged, must give the same pixels as the
+//! version before the render-job refactor (issue 32). The hashes below were recorded by that
+//! version (commit 32c614b) with `ALEPH_GOLDEN_RECORD=1 cargo test --release --test tests
+//! golden -- --nocapture`, which prints the table instead of checking it.
+//!
+//! What is hashed is the image data, not the files: every EXR channel (name and bit pattern, in
+//! name order) and every PNG's decoded pixels, FNV-1a 64. Headers are not hashed: they carry
+//! the scene's path and the render's record, which the refactor changes on purpose.
+
+use crate::util::{repo, tempdir};
+use std::path::Path;
+use std::process::Command;
+
+/// FNV-1a, 64 bits (Fowler–Noll–Vo): stable across Rust versions, unlike `DefaultHasher`.
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Fnv {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+    fn bytes(&mut self, b: &[u8]) {
+        for &x in b {
+            self.0 ^= x as u64;
+            self.0 = self.0.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+}
+
+/// Hash of the pixel data of every `.exr` and `.png` in `dir` (file names in order).
+fn hash_outputs(dir: &Path) -> (u64, Vec<String>) {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| {
+            (n.ends_with(".exr") && !n.contains(".part-") && !n.contains(".tile-"))
+                || n.ends_with(".png")
+        })
+        .collect();
+    names.sort();
+    let mut h = Fnv::new();
+    for n in &names {
+        h.bytes(n.as_bytes());
+        let path = dir.join(n);
+        if n.ends_with(".exr") {
+            let raw = aleph::imageio::read_exr_raw(&path).unwrap();
+            let mut f: Vec<_> = raw.f32s.iter().collect();
+            f.sort_by(|a, b| a.0.cmp(b.0));
+            for (name, v) in f {
+                h.bytes(name.as_bytes());
+                v.iter().for_each(|x| h.bytes(&x.to_bits().to_le_bytes()));
+            }
+            let mut u: Vec<_> = raw.u32s.iter().collect();
+            u.sort_by(|a, b| a.0.cmp(b.0));
+            for (name, v) in u {
+                h.bytes(name.as_bytes());
+                v.iter().for_each(|x| h.bytes(&x.to_le_bytes()));
+            }
+        } else {
+            let img = image::open(&path).unwrap().to_rgba8();
+            h.bytes(&img.width().to_le_bytes());
+            h.bytes(&img.height().to_le_bytes());
+            h.bytes(img.as_raw());
+        }
+    }
+    (h.0, names)
+}
+
+/// Runs `aleph ARGS` in `dir` and fails with its output if it fails.
+fn aleph(dir: &Path, args: &[&str]) {
+    let o = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "aleph {args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// Small renders that still exercise every rule: adaptive budgets are steered (`--steer-from 0`).
+const STILL: [&str; 4] = ["--resolution", "40x30", "--max-depth", "4"];
+
+/// The scene files of the bundled stills.
+const STILLS: [&str; 7] = [
+    "scenes/cornell-box/scene.toml",
+    "scenes/cornell-variants/glossy.toml",
+    "scenes/cornell-variants/mirror.toml",
+    "scenes/cornell-variants/sphere.toml",
+    "scenes/holodeck/scene.toml",
+    "scenes/lost-empire/scene.toml",
+    "scenes/mori-knob/scene.toml",
+];
+
+/// Each case: a name and the commands it runs (each in the case's own directory).
+fn cases() -> Vec<(String, Vec<Vec<String>>)> {
+    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+    let mut out = Vec::new();
+    for scene in STILLS {
+        let path = repo(scene).display().to_string();
+        let rules: [(&str, &[&str]); 4] = [
+            ("uniform", &["--sampler", "uniform", "--spp", "6"]),
+            (
+                "perceptual",
+                &[
+                    "--sampler",
+                    "perceptual",
+                    "--spp",
+                    "12",
+                    "--steer-from",
+                    "0",
+                    "--min-spp",
+                    "4",
+                ],
+            ),
+            (
+                "variance",
+                &[
+                    "--sampler",
+                    "variance",
+                    "--spp",
+                    "12",
+                    "--steer-from",
+                    "0",
+                    "--min-spp",
+                    "4",
+                ],
+            ),
+            ("converged", &["--max-spp", "32", "--min-spp", "4"]),
+        ];
+        for (rule, opts) in rules {
+            let mut c = s(&["render", &path, "-o", "out", "--aov"]);
+            c.extend(s(&STILL));
+            c.extend(s(opts));
+            out.push((format!("{scene} {rule}"), vec![c]));
+        }
+    }
+    let motion = repo("scenes/cornell-motion/scene.toml")
+        .display()
+        .to_string();
+    let pan = repo("scenes/holodeck/pan.toml").display().to_string();
+    for (name, scene, frames) in [
+        ("cornell-motion", &motion, "2-4"),
+        ("holodeck pan", &pan, "0-2"),
+    ] {
+        let mut c = s(&["render", scene, "-o", "seq", "--frames", frames]);
+        c.extend(s(&[
+            "--resolution",
+            "32x24",
+            "--spp",
+            "8",
+            "--steer-from",
+            "0",
+            "--min-spp",
+            "4",
+        ]));
+        out.push((format!("{name} sequence"), vec![c]));
+    }
+    let box_ = repo("scenes/cornell-box/scene.toml").display().to_string();
+    let part = |i: &str, extra: &[&str]| {
+        let mut c = s(&[
+            "render",
+            &box_,
+            "-o",
+            "p",
+            "--sampler",
+            "uniform",
+            "--spp",
+            "8",
+        ]);
+        c.extend(s(&STILL));
+        c.extend(s(extra));
+        c.extend(s(&["--part", i]));
+        c
+    };
+    out.push((
+        "cornell-box parts merged".into(),
+        vec![
+            part("1/3", &[]),
+            part("2/3", &[]),
+            part("3/3", &[]),
+            s(&[
+                "merge",
+                "p.part-3-of-3.exr",
+                "p.part-1-of-3.exr",
+                "p.part-2-of-3.exr",
+                "-o",
+                "m",
+            ]),
+        ],
+    ));
+    let mpart = |i: &str| {
+        let mut c = s(&[
+            "render",
+            &motion,
+            "-o",
+            "p",
+            "--sampler",
+            "uniform",
+            "--spp",
+            "8",
+        ]);
+        c.extend(s(&["--resolution", "32x24", "--frame", "3", "--part", i]));
+        c
+    };
+    out.push((
+        "cornell-motion frame parts merged".into(),
+        vec![
+            mpart("1/2"),
+            mpart("2/2"),
+            s(&[
+                "merge",
+                "p.0003.part-1-of-2.exr",
+                "p.0003.part-2-of-2.exr",
+                "-o",
+                "m",
+            ]),
+        ],
+    ));
+    let tile = |i: &str| {
+        let mut c = s(&[
+            "render",
+            &box_,
+            "-o",
+            "t",
+            "--spp",
+            "16",
+            "--steer-from",
+            "0",
+        ]);
+        c.extend(s(&STILL));
+        c.extend(s(&["--min-spp", "4", "--tile-margin", "4", "--tile", i]));
+        c
+    };
+    out.push((
+        "cornell-box tiles merged".into(),
+        vec![
+            tile("1/2"),
+            tile("2/2"),
+            s(&["merge", "t.tile-1-of-2.exr", "t.tile-2-of-2.exr", "-o", "m"]),
+        ],
+    ));
+    out
+}
+
+/// Hashes recorded by the version before the refactor (see the module docs).
+const GOLDEN: &[(&str, u64)] = &[
+    ("scenes/cornell-box/scene.toml uniform", 0xe7a626fbc962f8d9),
+    (
+        "scenes/cornell-box/scene.toml perceptual",
+        0xeb3ba1f871071bd4,
+    ),
+    ("scenes/cornell-box/scene.toml variance", 0xb645fd3b0bbb74cd),
+    (
+        "scenes/cornell-box/scene.toml converged",
+        0x3923f17eb3c0f10e,
+    ),
+    (
+        "scenes/cornell-variants/glossy.toml uniform",
+        0x10011e03cf5b2ac1,
+    ),
+    (
+        "scenes/cornell-variants/glossy.toml perceptual",
+        0xc76005568295421a,
+    ),
+    (
+        "scenes/cornell-variants/glossy.toml variance",
+        0x06071aad567f450a,
+    ),
+    (
+        "scenes/cornell-variants/glossy.toml converged",
+        0xf124aed4ebe5448e,
+    ),
+    (
+        "scenes/cornell-variants/mirror.toml uniform",
+        0x7020de1a76993069,
+    ),
+    (
+        "scenes/cornell-variants/mirror.toml perceptual",
+        0xf53b8509b073873e,
+    ),
+    (
+        "scenes/cornell-variants/mirror.toml variance",
+        0x72e9ae1fc2d57e8d,
+    ),
+    (
+        "scenes/cornell-variants/mirror.toml converged",
+        0x3d7dbc081c40d92b,
+    ),
+    (
+        "scenes/cornell-variants/sphere.toml uniform",
+        0x5146b00a93bb44f5,
+    ),
+    (
+        "scenes/cornell-variants/sphere.toml perceptual",
+        0x90f44ae5edf3cf50,
+    ),
+    (
+        "scenes/cornell-variants/sphere.toml variance",
+        0x88bc73e318e11298,
+    ),
+    (
+        "scenes/cornell-variants/sphere.toml converged",
+        0x81fdf40c39667b0b,
+    ),
+    ("scenes/holodeck/scene.toml uniform", 0x6064b0e356ed95c7),
+    ("scenes/holodeck/scene.toml perceptual", 0x81a148aa98dab92f),
+    ("scenes/holodeck/scene.toml variance", 0x2ad047e8a93c1221),
+    ("scenes/holodeck/scene.toml converged", 0xb850b505d977f39f),
+    ("scenes/lost-empire/scene.toml uniform", 0xf085091af462f96f),
+    (
+        "scenes/lost-empire/scene.toml perceptual",
+        0x91f3f82a8c84ee1d,
+    ),
+    ("scenes/lost-empire/scene.toml variance", 0xff9e0473b61f62d0),
+    (
+        "scenes/lost-empire/scene.toml converged",
+        0x01e1075b3f7eba88,
+    ),
+    ("scenes/mori-knob/scene.toml uniform", 0x1134bb93cd745b71),
+    ("scenes/mori-knob/scene.toml perceptual", 0x7edb95aac3a645cd),
+    ("scenes/mori-knob/scene.toml variance", 0x98d00f85b4aa71cb),
+    ("scenes/mori-knob/scene.toml converged", 0x496c7eca2870a4d4),
+    ("cornell-motion sequence", 0xc7969cbc76ff2880),
+    ("holodeck pan sequence", 0xba8de3e89b6bd217),
+    ("cornell-box parts merged", 0x54766d1821b4d5bd),
+    ("cornell-motion frame parts merged", 0xb88041f1dce5d457),
+    ("cornell-box tiles merged", 0xf56a5d95be5af0d5),
+];
+
+#[test]
+fn bundled_scenes_render_the_pixels_recorded_before_the_render_job() {
+    let record = std::env::var_os("ALEPH_GOLDEN_RECORD").is_some();
+    let mut failures = Vec::new();
+    for (name, commands) in cases() {
+        let dir = tempdir();
+        for c in &commands {
+            let args: Vec<&str> = c.iter().map(String::as_str).collect();
+            aleph(dir.path(), &args);
+        }
+        let (hash, files) = hash_outputs(dir.path());
+        if record {
+            println!("    (\"{name}\", 0x{hash:016x}), // {}", files.join(" "));
+            continue;
+        }
+        match GOLDEN.iter().find(|(n, _)| *n == name) {
+            Some(&(_, want)) if want == hash => {}
+            Some(&(_, want)) => failures.push(format!(
+                "{name}: 0x{hash:016x}, recorded 0x{want:016x} ({files:?})"
+            )),
+            None => failures.push(format!("{name}: no recorded hash")),
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "pixels changed:\n{}",
+        failures.join("\n")
+    );
+}
