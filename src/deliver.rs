@@ -49,6 +49,58 @@ pub enum Look {
     Exposure(Option<f32>),
 }
 
+impl Look {
+    /// Words for a summary line: the operator, or the exposure in stops.
+    pub fn describe(&self) -> String {
+        match self {
+            Look::Tone(t) => format!("tone operator {}", t.operator.name()),
+            Look::Exposure(Some(ev)) => format!("{ev:+.2} EV"),
+            Look::Exposure(None) => "automatic exposure".into(),
+        }
+    }
+}
+
+/// `STEM.NNNN`: a frame's stem, numbered as compositing tools expect (four digits, more when
+/// needed).
+pub fn numbered(stem: &Path, frame: i64) -> PathBuf {
+    with_ext(stem, &format!("{frame:04}"))
+}
+
+/// Largest width of a sequence's animated preview; larger frames are shrunk by an integer
+/// factor.
+const PREVIEW_MAX_WIDTH: usize = 640;
+
+/// Writes `STEM.preview.png` (an animated PNG at `fps` of the frames' display images, 8-bit
+/// sRGB `w × h` each, shrunk to at most 640 pixels wide) and `STEM.filmstrip.png`
+/// ([`crate::display::filmstrip`]), all or nothing. Returns their paths.
+///
+/// # Errors
+/// [`DeliverError::Output`] naming the file; nothing is replaced then.
+pub fn write_sequence_outputs(
+    stem: &Path,
+    displays: &[(i64, Vec<u8>)],
+    w: usize,
+    h: usize,
+    fps: f64,
+) -> Result<(PathBuf, PathBuf), DeliverError> {
+    let factor = w.div_ceil(PREVIEW_MAX_WIDTH).max(1);
+    let (pw, ph) = ((w / factor).max(1), (h / factor).max(1));
+    let frames: Vec<Vec<u8>> = displays
+        .iter()
+        .map(|(_, d)| crate::display::shrink_rgb8(d, w, h, factor))
+        .collect();
+    let preview = with_ext(stem, "preview.png");
+    let strip_path = with_ext(stem, "filmstrip.png");
+    let (strip, sw, sh) = crate::display::filmstrip(displays, w, h);
+    let mut out = AtomicOutputs::new();
+    out.stage(&preview, |wr| {
+        crate::output::write_apng(wr, &preview, pw as u32, ph as u32, &frames, fps)
+    })?;
+    out.stage(&strip_path, |wr| write_png(wr, &strip_path, sw, sh, &strip))?;
+    out.commit()?;
+    Ok((preview, strip_path))
+}
+
 /// What [`write_render`] wrote.
 pub struct Written {
     /// The display image (8-bit sRGB).
@@ -69,7 +121,7 @@ fn exr_layers(scene: &Scene, settings: &AdaptiveSettings, result: &AdaptiveResul
         ),
         ("sppUnits".to_string(), "samples per pixel".to_string()),
         ("scene".to_string(), scene.path.display().to_string()),
-        ("sampler".to_string(), settings.sampler.name().to_string()),
+        ("sampler".to_string(), settings.criterion.name().to_string()),
     ];
     let mut extra = vec![("spp".to_string(), ChannelData::U32(result.film.spp()))];
     if let (Some(t), Some(e)) = (&result.threshold, &result.error) {

@@ -250,27 +250,46 @@ pub fn register_font() {
     });
 }
 
-/// Box-filter downscale of interleaved RGB by an integer factor.
-fn downscale(rgb: &[f32], w: usize, h: usize, f: usize) -> (Vec<f32>, usize, usize) {
+/// Box-filter downscale of interleaved RGB by an integer factor `f`: each output pixel is the
+/// mean of an `f × f` block (summed in f64), the last `w mod f` columns and `h mod f` rows
+/// dropped. Returns the image and its size.
+fn box_shrink<T: Copy + Default>(
+    rgb: &[T],
+    (w, h): (usize, usize),
+    f: usize,
+    to: impl Fn(T) -> f64,
+    from: impl Fn(f64) -> T,
+) -> (Vec<T>, usize, usize) {
     if f <= 1 {
         return (rgb.to_vec(), w, h);
     }
     let (nw, nh) = (w / f, h / f);
-    let mut out = vec![0f32; 3 * nw * nh];
+    let mut out = vec![T::default(); 3 * nw * nh];
     for y in 0..nh {
         for x in 0..nw {
             for c in 0..3 {
                 let mut s = 0.0;
                 for dy in 0..f {
                     for dx in 0..f {
-                        s += rgb[3 * ((y * f + dy) * w + x * f + dx) + c];
+                        s += to(rgb[3 * ((y * f + dy) * w + x * f + dx) + c]);
                     }
                 }
-                out[3 * (y * nw + x) + c] = s / (f * f) as f32;
+                out[3 * (y * nw + x) + c] = from(s / (f * f) as f64);
             }
         }
     }
     (out, nw, nh)
+}
+
+/// Box-filter downscale of linear interleaved RGB by an integer factor ([`box_shrink`]).
+fn downscale(rgb: &[f32], w: usize, h: usize, f: usize) -> (Vec<f32>, usize, usize) {
+    box_shrink(rgb, (w, h), f, |v| v as f64, |v| v as f32)
+}
+
+/// Box-filter downscale of 8-bit interleaved RGB (`w × h`) by an integer factor `f`, each
+/// value the block mean rounded down; the image is `w / f × h / f`.
+pub fn shrink_rgb8(rgb8: &[u8], w: usize, h: usize, f: usize) -> Vec<u8> {
+    box_shrink(rgb8, (w, h), f, |v| v as f64, |v| v as u8).0
 }
 
 /// A labelled grid of every operator's result (3 columns), each tile at most 480 pixels wide.

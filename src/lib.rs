@@ -31,6 +31,7 @@ pub mod film;
 pub mod geometry;
 pub mod imageio;
 pub mod integrator;
+pub mod job;
 pub mod light;
 pub mod material;
 pub mod math;

@@ -14,7 +14,7 @@
 //!   threshold map sees first-pass noise beyond its margin); docs/farm.md gives the measured
 //!   cost.
 //!
-//! # File layout (OpenEXR, one part, ZIP-compressed, version 1)
+//! # File layout (OpenEXR, one part, ZIP-compressed, version 2)
 //! - `R`, `G`, `B` (f32): the part's own mean radiance, W·sr⁻¹·m⁻², so that any EXR viewer shows
 //!   a preview of the part;
 //! - `spp` (u32): samples per pixel in the part;
@@ -24,9 +24,10 @@
 //!   `Film.S.lo0` and `Film.S.lo1` those of `lo` (all u32), for S in `EvenR`, `EvenG`, `EvenB`
 //!   (samples with even index), `OddR`, `OddG`, `OddB` (odd index) and `Y2` (Σ Y²);
 //! - row tiles only: `Threshold.Y` and `Error.Y` (f32), the sampler's last threshold and error;
-//! - header attributes: `alephPartialFilm` = `1` (the layout version), `alephPart` = `I/K` (part
-//!   I of K, from 1), `alephRecipe` (an opaque text that parts of one render share; the CLI
-//!   stores the render's arguments there), `radianceUnits`, and either `alephSamples` =
+//! - header attributes: `alephPartialFilm` = `2` (the layout version; 2 since the recipe is a
+//!   render job's record), `alephPart` = `I/K` (part
+//!   I of K, from 1), `alephRecipe` (an opaque text that parts of one render share; the
+//!   render-job layer stores the job's TOML record there, [`crate::job`]), `radianceUnits`, and either `alephSamples` =
 //!   `FIRST..END` (the sample indices every pixel holds) or `alephRows` = `START..END/HEIGHT`
 //!   (the image rows the tile holds, of the frame's HEIGHT; the file is END − START rows high).
 
@@ -39,7 +40,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// Layout version written in `alephPartialFilm`.
-pub const FORMAT_VERSION: &str = "1";
+pub const FORMAT_VERSION: &str = "2";
 
 /// Names of the exact sums, in file order.
 const SUMS: [&str; 7] = ["EvenR", "EvenG", "EvenB", "OddR", "OddG", "OddB", "Y2"];
@@ -486,11 +487,30 @@ pub struct Merged {
 /// # Errors
 /// [`PartialError`] naming the file that cannot be read or does not fit.
 pub fn merge_parts(paths: &[PathBuf]) -> Result<Merged, PartialError> {
+    merge_parts_with(paths, &|a, b| {
+        if a == b {
+            Ok(())
+        } else {
+            Err(format!("recipes differ:\n  {a}\n  {b}"))
+        }
+    })
+}
+
+/// [`merge_parts`] with the parts' recipes compared by `same_recipe` (first part's, other
+/// part's), which says how they differ when they do (the render-job layer compares structured
+/// records, [`crate::job::merge`]).
+///
+/// # Errors
+/// As [`merge_parts`].
+pub fn merge_parts_with(
+    paths: &[PathBuf],
+    same_recipe: &dyn Fn(&str, &str) -> Result<(), String>,
+) -> Result<Merged, PartialError> {
     let mut infos = Vec::new();
     for p in paths {
         infos.push((p.clone(), read_part_info(p)?));
     }
-    check_same_render(&infos)?;
+    check_same_render(&infos, same_recipe)?;
     infos.sort_by_key(|(_, p)| match p.split {
         Split::Samples { first, .. } => first,
         Split::Rows { start, .. } => start,
@@ -550,7 +570,10 @@ fn shape(p: &PartInfo) -> (bool, u32, u32, u32) {
 }
 
 /// All parts share the first one's recipe, kind, frame size and part count.
-fn check_same_render(infos: &[(PathBuf, PartInfo)]) -> Result<(), PartialError> {
+fn check_same_render(
+    infos: &[(PathBuf, PartInfo)],
+    same_recipe: &dyn Fn(&str, &str) -> Result<(), String>,
+) -> Result<(), PartialError> {
     let (path0, first) = infos.first().ok_or(PartialError::Empty)?;
     let describe = |p: &PartInfo| {
         let (tiles, w, h, k) = shape(p);
@@ -558,15 +581,10 @@ fn check_same_render(infos: &[(PathBuf, PartInfo)]) -> Result<(), PartialError> 
         format!("a {kind} of {k} of a {w}×{h} frame")
     };
     for (path, p) in &infos[1..] {
-        if p.recipe != first.recipe {
+        if let Err(why) = same_recipe(&first.recipe, &p.recipe) {
             return Err(mismatch(
                 path,
-                format!(
-                    "a part of another render than {} (recipes differ:\n  {}\n  {})",
-                    path0.display(),
-                    first.recipe,
-                    p.recipe
-                ),
+                format!("a part of another render than {} ({why})", path0.display()),
             ));
         }
         if shape(p) != shape(first) {

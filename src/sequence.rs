@@ -83,22 +83,19 @@ pub struct AdaptationCourse {
 }
 
 impl AdaptationCourse {
-    /// Runs the pre-passes of frames first..=`last` of the scene's animation and restores the
-    /// scene's current frame. `None` for a still.
+    /// Runs the pre-passes of frames first..=`last` of the scene's animation (on views of the
+    /// scene at each frame; `scene` is unchanged). `None` for a still.
     ///
     /// # Errors
-    /// As [`Scene::set_frame`] (`last` outside the frame range).
-    pub fn compute(scene: &mut Scene, last: i64) -> SceneResult<Option<AdaptationCourse>> {
+    /// As [`Scene::at_frame`] (`last` outside the frame range).
+    pub fn compute(scene: &Scene, last: i64) -> SceneResult<Option<AdaptationCourse>> {
         let Some(anim) = scene.animation else {
             return Ok(None);
         };
-        let current = scene.frame.index;
         let mut stimuli = Vec::new();
         for f in anim.frame_start..=last {
-            scene.set_frame(f)?;
-            stimuli.push(adaptation_stimulus(scene));
+            stimuli.push(adaptation_stimulus(&scene.at_frame(f)?));
         }
-        scene.set_frame(current)?;
         Ok(Some(AdaptationCourse {
             fps: anim.fps,
             first: anim.frame_start,
@@ -118,5 +115,100 @@ impl AdaptationCourse {
             state.advance(c, r, 1.0 / self.fps);
         }
         state
+    }
+}
+
+/// One frame of a [`Sequence`]: the scene at that frame and the viewer's adaptation state on
+/// arriving at it. This is the one place a frame's time reaches the renderer: everything that
+/// renders a frame takes `scene` from here.
+pub struct FrameContext {
+    /// The frame number.
+    pub index: i64,
+    /// The scene at this frame (a view sharing the loaded scene's world).
+    pub scene: Scene,
+    /// The viewer's adaptation state at this frame (Pattanaik et al. 2000, §4), for the tone
+    /// operator and the display threshold.
+    pub adaptation: AdaptationState,
+}
+
+/// Frames `first..=last` of an animated scene with the viewer's adaptation course over them:
+/// the single frame loop of `aleph render`, `aleph speedup` and the farm's tasks.
+pub struct Sequence<'a> {
+    scene: &'a Scene,
+    first: i64,
+    last: i64,
+    course: AdaptationCourse,
+    prepass: std::time::Duration,
+}
+
+impl<'a> Sequence<'a> {
+    /// Checks the range and runs the adaptation pre-passes of frames up to `last`.
+    ///
+    /// # Errors
+    /// [`crate::error::SceneError::Invalid`] naming the scene file: a still scene, or `first`
+    /// or `last` outside the scene's frame range.
+    pub fn new(scene: &'a Scene, first: i64, last: i64) -> SceneResult<Sequence<'a>> {
+        let invalid = |message: String| crate::error::SceneError::Invalid {
+            path: scene.path.clone(),
+            message,
+        };
+        if scene.animation.is_none() {
+            return Err(invalid(
+                "frames need an animated scene (this one has no [animation] table)".into(),
+            ));
+        }
+        if first > last {
+            return Err(invalid(format!(
+                "the first frame ({first}) is after the last ({last})"
+            )));
+        }
+        scene.at_frame(first)?;
+        scene.at_frame(last)?;
+        let start = std::time::Instant::now();
+        let course = AdaptationCourse::compute(scene, last)?.expect("an animated scene");
+        Ok(Sequence {
+            scene,
+            first,
+            last,
+            course,
+            prepass: start.elapsed(),
+        })
+    }
+
+    /// The first and last frame.
+    pub fn range(&self) -> (i64, i64) {
+        (self.first, self.last)
+    }
+
+    /// Frames per second of the scene's animation.
+    pub fn fps(&self) -> f64 {
+        self.course.fps
+    }
+
+    /// The adaptation course (from the animation's first frame to `last`).
+    pub fn course(&self) -> &AdaptationCourse {
+        &self.course
+    }
+
+    /// Wall time of the adaptation pre-passes.
+    pub fn prepass_time(&self) -> std::time::Duration {
+        self.prepass
+    }
+
+    /// Frame `index` (which need not be in the range: a frame before `first` has its state).
+    ///
+    /// # Errors
+    /// As [`Scene::at_frame`].
+    pub fn frame(&self, index: i64) -> SceneResult<FrameContext> {
+        Ok(FrameContext {
+            index,
+            scene: self.scene.at_frame(index)?,
+            adaptation: self.course.state_at(index),
+        })
+    }
+
+    /// The frames `first..=last` in order.
+    pub fn frames(&self) -> impl Iterator<Item = SceneResult<FrameContext>> + '_ {
+        (self.first..=self.last).map(|f| self.frame(f))
     }
 }

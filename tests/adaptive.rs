@@ -1,7 +1,7 @@
 //! Adaptive sampling: where the samples go, and that the loop is honest.
 
 use crate::util::*;
-use aleph::adaptive::{AdaptiveSettings, SamplerKind, Visibility, render_adaptive};
+use aleph::adaptive::{AdaptiveSettings, Criterion, Visibility, render_adaptive};
 use aleph::integrator::Strategy;
 use aleph::render::render_uniform;
 use aleph::scene::Scene;
@@ -307,7 +307,7 @@ fn uniform_with_a_budget_equals_a_plain_render_bit_for_bit() {
     let scene = cornell_box(24, 24);
     for n in [1u32, 5, 16] {
         let s = AdaptiveSettings {
-            sampler: SamplerKind::Uniform,
+            criterion: Criterion::Uniform,
             budget_spp: Some(n as f64),
             ..AdaptiveSettings::default()
         };
@@ -320,9 +320,9 @@ fn uniform_with_a_budget_equals_a_plain_render_bit_for_bit() {
 #[test]
 fn adaptive_renders_are_identical_for_one_and_two_threads() {
     let scene = cornell_box(40, 32);
-    for sampler in [SamplerKind::Perceptual, SamplerKind::Variance] {
+    for sampler in [Criterion::Perceptual, Criterion::Variance] {
         let s = AdaptiveSettings {
-            sampler,
+            criterion: sampler,
             budget_spp: Some(24.0),
             // Small budgets, to test the loop's decisions (unsteered by default).
             steer_from_spp: 0.0,
@@ -522,7 +522,7 @@ fn budgets_under_steer_from_are_the_uniform_render_bit_for_bit() {
     let scene = cornell_box(24, 24);
     let run = |sampler, budget: f64, steer_from_spp| {
         let s = AdaptiveSettings {
-            sampler,
+            criterion: sampler,
             budget_spp: Some(budget),
             steer_from_spp,
             ..Default::default()
@@ -537,8 +537,8 @@ fn budgets_under_steer_from_are_the_uniform_render_bit_for_bit() {
             .collect::<Vec<_>>()
     };
     assert_eq!(aleph::adaptive::STEER_FROM_SPP, 128.0);
-    let uniform = run(SamplerKind::Uniform, 32.0, 128.0);
-    for sampler in [SamplerKind::Perceptual, SamplerKind::Variance] {
+    let uniform = run(Criterion::Uniform, 32.0, 128.0);
+    for sampler in [Criterion::Perceptual, Criterion::Variance] {
         let r = run(sampler, 32.0, 128.0);
         assert_eq!(bits(&r), bits(&uniform), "{sampler:?}");
         assert!(r.film.pixels.iter().all(|p| p.n == 32));
@@ -551,7 +551,7 @@ fn budgets_under_steer_from_are_the_uniform_render_bit_for_bit() {
             assert!(r.threshold.is_some(), "{sampler:?} at {steer_from}");
             assert!(r.passes.len() > 1);
             let n: Vec<u32> = r.film.pixels.iter().map(|p| p.n).collect();
-            if sampler == SamplerKind::Perceptual {
+            if sampler == Criterion::Perceptual {
                 assert!(n.iter().min() < n.iter().max(), "uniform counts");
             }
         }

@@ -125,8 +125,10 @@ fn vector_at(v: &aleph::velocity::VelocityMap, x: usize, y: usize) -> [f32; 4] {
 fn velocity_of_a_moving_object_is_its_projected_motion() {
     let dir = tempdir();
     let w = 32u32;
-    let mut scene = Scene::load(&moving_emitter(dir.path(), [w, w], 0.5)).unwrap();
-    scene.set_frame(0).unwrap();
+    let scene = Scene::load(&moving_emitter(dir.path(), [w, w], 0.5))
+        .unwrap()
+        .at_frame(0)
+        .unwrap();
     let v = aleph::velocity::render_velocity(&scene).unwrap();
     // The emitter moves +0.25 image units per second = per frame; raster x = (X + 1) w / 2, so
     // +0.25 × 16 = 4 pixels per frame to the right. Blender's layout: X,Y = p(t−1) − p(t) =
@@ -201,15 +203,13 @@ fn a_frame_rendered_alone_equals_the_same_frame_in_a_sequence_for_any_thread_cou
         pool.install(|| aleph::render::render_uniform(scene, Strategy::Mis, 6, &|_| {}).0)
     };
     // In a sequence: frames 0..=3 on one scene.
-    let mut seq = Scene::load(&path).unwrap();
+    let seq = Scene::load(&path).unwrap();
     let mut frames = Vec::new();
     for f in 0..=3 {
-        seq.set_frame(f).unwrap();
-        frames.push(render(&seq, 2).mean_rgb());
+        frames.push(render(&seq.at_frame(f).unwrap(), 2).mean_rgb());
     }
     // Alone: a fresh scene, frame 2 only, one thread.
-    let mut alone = Scene::load(&path).unwrap();
-    alone.set_frame(2).unwrap();
+    let alone = Scene::load(&path).unwrap().at_frame(2).unwrap();
     assert_eq!(render(&alone, 1).mean_rgb(), frames[2]);
     assert_eq!(render(&alone, 3).mean_rgb(), frames[2]);
     // Frames are decorrelated, not copies.
@@ -347,8 +347,8 @@ fn bad_keys_are_located_errors() {
 fn frames_outside_the_range_are_refused() {
     let dir = tempdir();
     let path = animated_cornell(dir.path());
-    let mut scene = Scene::load(&path).unwrap();
-    let e = scene.set_frame(9).unwrap_err().to_string();
+    let scene = Scene::load(&path).unwrap();
+    let e = scene.at_frame(9).err().unwrap().to_string();
     assert!(e.contains("frame 9") && e.contains("0-3"), "{e}");
     let o = Command::new(env!("CARGO_BIN_EXE_aleph"))
         .args(["render", path.to_str().unwrap(), "--frames", "2-7", "-o"])
@@ -456,7 +456,7 @@ fn sequence_speedup_runs_end_to_end_on_a_tiny_scene() {
 
 #[test]
 fn thresholds_and_tone_curves_do_not_flicker_on_a_static_sequence() {
-    use aleph::adaptive::{AdaptiveSettings, SamplerKind};
+    use aleph::adaptive::{AdaptiveSettings, Criterion};
     use aleph::sequence::AdaptationCourse;
     // The Cornell box as a sequence without keys: every frame is the same image up to noise.
     let dir = tempdir();
@@ -475,8 +475,8 @@ fn thresholds_and_tone_curves_do_not_flicker_on_a_static_sequence() {
     )
     .unwrap();
     std::fs::write(dir.path().join("scene.toml"), src).unwrap();
-    let mut scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
-    let course = AdaptationCourse::compute(&mut scene, 5).unwrap().unwrap();
+    let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
+    let course = AdaptationCourse::compute(&scene, 5).unwrap().unwrap();
     let states: Vec<f64> = (0..=5).map(|f| course.state_at(f).cone_neural).collect();
     for w in states.windows(2) {
         assert!(
@@ -486,9 +486,9 @@ fn thresholds_and_tone_curves_do_not_flicker_on_a_static_sequence() {
     }
     let mut maps = Vec::new();
     for f in [2, 3] {
-        scene.set_frame(f).unwrap();
+        let scene = scene.at_frame(f).unwrap();
         let mut s = AdaptiveSettings {
-            sampler: SamplerKind::Perceptual,
+            criterion: Criterion::Perceptual,
             budget_spp: Some(16.0),
             // Small budgets, to test the loop's decisions (unsteered by default).
             steer_from_spp: 0.0,

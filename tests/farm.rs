@@ -4,7 +4,7 @@
 //! `tests/slurm.rs` (ignored here; `.ci/run` starts a cluster and runs it).
 
 use crate::util::{repo, tempdir};
-use aleph::adaptive::{AdaptiveSettings, SamplerKind, render_adaptive};
+use aleph::adaptive::{AdaptiveSettings, Criterion, render_adaptive};
 use aleph::partial::{merge_parts, part_path, read_partial, render_part, write_partial};
 use aleph::scene::{Scene, SceneDescription};
 use std::path::{Path, PathBuf};
@@ -54,7 +54,7 @@ fn parts_merge_into_the_single_render_bit_for_bit() {
     let scene = small_box(24);
     let spp = 13;
     let settings = AdaptiveSettings {
-        sampler: SamplerKind::Uniform,
+        criterion: Criterion::Uniform,
         budget_spp: Some(spp as f64),
         ..Default::default()
     };

@@ -28,7 +28,7 @@ impl Fnv {
 }
 
 /// Hash of the pixel data of every `.exr` and `.png` in `dir` (file names in order).
-fn hash_outputs(dir: &Path) -> (u64, Vec<String>) {
+pub fn hash_outputs(dir: &Path) -> (u64, Vec<String>) {
     let mut names: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -246,7 +246,7 @@ fn cases() -> Vec<(String, Vec<Vec<String>>)> {
 }
 
 /// Hashes recorded by the version before the refactor (see the module docs).
-const GOLDEN: &[(&str, u64)] = &[
+pub const GOLDEN: &[(&str, u64)] = &[
     ("scenes/cornell-box/scene.toml uniform", 0xe7a626fbc962f8d9),
     (
         "scenes/cornell-box/scene.toml perceptual",

@@ -12,6 +12,7 @@ mod farm;
 mod furnace;
 mod fuzz;
 mod golden;
+mod job;
 mod lights;
 mod reference;
 mod scenes;

@@ -33,13 +33,16 @@ pub const LOG_DELTA_CD_M2: f32 = 1e-4;
 /// FWHM / σ of a Gaussian: 2 sqrt(2 ln 2).
 const FWHM_PER_SIGMA: f64 = 2.354_820_045;
 
-/// How adaptation luminance is computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+/// How adaptation luminance is computed (serialized as `global`, `local`, `local-geometric`,
+/// the command line's names).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum AdaptationMode {
     /// The geometric mean of the whole image.
     Global,
     /// Gaussian-weighted arithmetic mean over the window.
     #[default]
+    #[serde(rename = "local")]
     LocalArithmetic,
     /// Gaussian-weighted geometric mean over the window.
     LocalGeometric,

@@ -505,12 +505,12 @@ impl VarianceCriterion {
 }
 
 /// One of the adaptive criteria.
-pub(crate) enum Criterion {
+pub(crate) enum Judge {
     Perceptual(Box<PerceptualCriterion>),
     Variance(VarianceCriterion),
 }
 
-impl Criterion {
+impl Judge {
     /// Judges the film; returns the judgement and the guide's render time (if it ran now).
     pub fn judge(
         &mut self,
@@ -519,8 +519,8 @@ impl Criterion {
         s: &AdaptiveSettings,
     ) -> perception::Result<(Judgement, Duration)> {
         match self {
-            Criterion::Perceptual(p) => p.judge(scene, film, s),
-            Criterion::Variance(v) => Ok((v.judge(film), Duration::ZERO)),
+            Judge::Perceptual(p) => p.judge(scene, film, s),
+            Judge::Variance(v) => Ok((v.judge(film), Duration::ZERO)),
         }
     }
 
@@ -528,8 +528,8 @@ impl Criterion {
     /// criterion, which keeps Cycles' rule as it is).
     pub fn relative_noise(&self, film: &Film) -> Option<Vec<f32>> {
         match self {
-            Criterion::Perceptual(_) => Some(relative_noise(film)),
-            Criterion::Variance(_) => None,
+            Judge::Perceptual(_) => Some(relative_noise(film)),
+            Judge::Variance(_) => None,
         }
     }
 
@@ -554,16 +554,16 @@ impl Criterion {
     /// the same (the variance criterion) or none was made yet.
     pub fn next_refresh_spp(&self) -> Option<f64> {
         match self {
-            Criterion::Perceptual(p) => p.threshold.as_ref().map(|(at, _)| at * REFRESH_SPP_FACTOR),
-            Criterion::Variance(_) => None,
+            Judge::Perceptual(p) => p.threshold.as_ref().map(|(at, _)| at * REFRESH_SPP_FACTOR),
+            Judge::Variance(_) => None,
         }
     }
 
     /// Counters of the guide render (perceptual only).
     pub fn guide_stats(&self) -> Option<RenderStats> {
         match self {
-            Criterion::Perceptual(p) => p.guide_stats,
-            Criterion::Variance(_) => None,
+            Judge::Perceptual(p) => p.guide_stats,
+            Judge::Variance(_) => None,
         }
     }
 }

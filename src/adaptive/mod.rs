@@ -1,12 +1,12 @@
 //! Adaptive sampling: spend samples only where the remaining error is still visible.
 //!
 //! One loop serves three samplers; only the per-pixel "needs more" decision differs:
-//! - perceptual ([`SamplerKind::Perceptual`]): error (half-buffer difference, in display or scene cd/m²)
+//! - perceptual ([`Criterion::Perceptual`]): error (half-buffer difference, in display or scene cd/m²)
 //!   against the threshold map ΔL_T of the `perception` crate (Ramasubramanian et al. 1999; Yee
 //!   et al. 2001);
-//! - variance ([`SamplerKind::Variance`]): Blender Cycles' noise-threshold criterion (after Dammertz et al.
+//! - variance ([`Criterion::Variance`]): Blender Cycles' noise-threshold criterion (after Dammertz et al.
 //!   2010), the production baseline;
-//! - uniform ([`SamplerKind::Uniform`]): the same budget spread evenly.
+//! - uniform ([`Criterion::Uniform`]): the same budget spread evenly.
 //!
 //! # The loop
 //! 0. A sample budget under `steer_from_spp` ([`STEER_FROM_SPP`], 128) is rendered uniformly
@@ -76,14 +76,16 @@ use crate::render::{RenderStats, render_counts};
 use crate::scene::Scene;
 use crate::velocity::{VelocityMap, render_velocity};
 use allocate::{Allocation, allocate, fit_to_budget};
-use criterion::{Criterion, PerceptualCriterion, VarianceCriterion};
+use criterion::{Judge, PerceptualCriterion, VarianceCriterion};
 use perception::threshold::ThresholdParams;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
-/// Which per-pixel decision steers the samples.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SamplerKind {
+/// The adaptive decision rule: which per-pixel decision steers the samples (serialized by its
+/// command-line name).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Criterion {
     /// Error against the perceptual threshold map.
     Perceptual,
     /// The same number of samples everywhere.
@@ -92,19 +94,20 @@ pub enum SamplerKind {
     Variance,
 }
 
-impl SamplerKind {
+impl Criterion {
     /// Command-line name.
     pub fn name(self) -> &'static str {
         match self {
-            SamplerKind::Perceptual => "perceptual",
-            SamplerKind::Uniform => "uniform",
-            SamplerKind::Variance => "variance",
+            Criterion::Perceptual => "perceptual",
+            Criterion::Uniform => "uniform",
+            Criterion::Variance => "variance",
         }
     }
 }
 
 /// Where visibility is judged.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Visibility {
     /// Display luminance after the tone curve, cd/m².
     Display,
@@ -138,7 +141,8 @@ impl StopReason {
 }
 
 /// How the perceptual sampler estimates a pixel's remaining error.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum ErrorEstimate {
     /// |Y(A) − Y(B)| / 2 from the two half-buffers, in visibility units.
     HalfBuffers,
@@ -169,7 +173,7 @@ pub const STEER_FROM_SPP: f64 = 128.0;
 #[derive(Clone, Debug)]
 pub struct AdaptiveSettings {
     /// The sampler.
-    pub sampler: SamplerKind,
+    pub criterion: Criterion,
     /// Samples per pixel of the first, uniform pass (default 8; at least 2 for half-buffers).
     pub min_spp: u32,
     /// Cap on any one pixel's samples (default 4096).
@@ -222,7 +226,7 @@ pub struct AdaptiveSettings {
 impl Default for AdaptiveSettings {
     fn default() -> Self {
         AdaptiveSettings {
-            sampler: SamplerKind::Perceptual,
+            criterion: Criterion::Perceptual,
             min_spp: 8,
             max_spp: 4096,
             steer_from_spp: STEER_FROM_SPP,
@@ -250,8 +254,8 @@ impl Default for AdaptiveSettings {
 impl AdaptiveSettings {
     /// Units of the threshold and error maps this sampler produces.
     pub fn units(&self) -> &'static str {
-        match (self.sampler, self.visibility) {
-            (SamplerKind::Variance, _) => "Cycles relative error (dimensionless)",
+        match (self.criterion, self.visibility) {
+            (Criterion::Variance, _) => "Cycles relative error (dimensionless)",
             (_, Visibility::Display) => {
                 "scene luminance, cd/m^2 (display thresholds over the tone curve's slope; 1e30 where every grade clips)"
             }
@@ -272,7 +276,7 @@ impl AdaptiveSettings {
     /// Whether the sampler decides anything: false for the uniform sampler and for an adaptive
     /// one whose budget is under `steer_from_spp` (rendered uniformly).
     pub fn steers(&self) -> bool {
-        self.sampler != SamplerKind::Uniform
+        self.criterion != Criterion::Uniform
             && self.budget_spp.is_none_or(|b| b >= self.steer_from_spp)
     }
 
@@ -290,7 +294,7 @@ impl AdaptiveSettings {
     /// cap apply only then).
     fn perceptual_budget(&self) -> Option<f64> {
         self.budget_spp
-            .filter(|_| self.sampler == SamplerKind::Perceptual)
+            .filter(|_| self.criterion == Criterion::Perceptual)
     }
 
     /// Samples per pixel of the uniform sampler: the budget rounded (at least 1), else
@@ -565,15 +569,15 @@ pub fn render_adaptive(
     }
     // The threshold mapper's setup (filters, FFT plans) is a decision cost too.
     let t_setup = Instant::now();
-    let mut criterion = match s.sampler {
-        SamplerKind::Perceptual => {
+    let mut criterion = match s.criterion {
+        Criterion::Perceptual => {
             let motion = velocity
                 .as_ref()
                 .filter(|_| s.use_velocity)
                 .map(|v| v.motion_px_per_frame());
-            Criterion::Perceptual(Box::new(PerceptualCriterion::new(scene, s, motion)?))
+            Judge::Perceptual(Box::new(PerceptualCriterion::new(scene, s, motion)?))
         }
-        _ => Criterion::Variance(VarianceCriterion::new(&st.film, s.variance_threshold)),
+        _ => Judge::Variance(VarianceCriterion::new(&st.film, s.variance_threshold)),
     };
     st.decision_time += t_setup.elapsed();
     let mut rate = st.stats.samples as f64 / st.stats.wall.as_secs_f64().max(1e-9);
@@ -584,7 +588,7 @@ pub fn render_adaptive(
         let refresh_before = criterion.next_refresh_spp();
         let (judgement, guide_time) = criterion.judge(scene, &st.film, s)?;
         let noise = criterion.relative_noise(&st.film);
-        let ratio = Criterion::ratio(&judgement, noise.as_deref());
+        let ratio = Judge::ratio(&judgement, noise.as_deref());
         let judged = t0.elapsed().saturating_sub(guide_time);
         st.decision_time += judged;
         cost.record(judged, criterion.next_refresh_spp() != refresh_before);
@@ -751,7 +755,7 @@ fn unjudged(
 /// [`allocate::FLOOR_SHARE`] · B; without one, [`allocate::STOP_FLOOR_SHARE`] of the region's
 /// current mean spp. `None` for the variance sampler.
 fn pixel_floor(s: &AdaptiveSettings, st: &LoopState) -> Option<u32> {
-    if s.sampler != SamplerKind::Perceptual {
+    if s.criterion != Criterion::Perceptual {
         return None;
     }
     let target = match s.budget_spp {

@@ -12,12 +12,14 @@
 //! shows a Kubernetes Indexed Job).
 
 use super::merge::{self, MergeArgs};
-use super::render::{self, RenderArgs, SamplerArg, default_scene, parse_frames, with_ext};
-use super::sequence::{numbered, write_sequence_outputs};
+use super::render::{self, RenderArgs, default_scene, parse_frames, with_ext};
+use super::with_threads;
+use aleph::adaptive::Criterion;
+use aleph::deliver::{numbered, write_sequence_outputs};
+use aleph::job::{RenderJob, Split};
 use aleph::partial::part_path;
-use aleph::scene::Scene;
 use anyhow::{Context, bail};
-use clap::{Args, Subcommand};
+use clap::{Args, Parser, Subcommand};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -111,13 +113,10 @@ struct FinishArgs {
 
 /// `DIR/farm.toml`: what the tasks render.
 #[derive(Serialize, Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
 struct Manifest {
     /// The aleph binary the batch scripts run.
     aleph: PathBuf,
-    /// The scene (absolute).
-    scene: PathBuf,
-    /// The working directory of the render options' relative paths.
-    cwd: PathBuf,
     /// Output stem inside the farm directory.
     stem: String,
     /// Frames `[first, last]` of an animated scene; none for a still.
@@ -127,8 +126,12 @@ struct Manifest {
     /// Whether the parts are row tiles (`--split-tiles`) rather than sample ranges.
     #[serde(default)]
     tiles: bool,
-    /// Render options of every task.
-    render: Vec<String>,
+    /// Rows on each side of a tile that also take samples (`--tile-margin`).
+    #[serde(default)]
+    tile_margin: u32,
+    /// The render every task runs a frame or a part of (its frames, split and outputs are the
+    /// farm's to set): the render options after `--`, as a render job.
+    job: RenderJob,
 }
 
 /// What one task renders.
@@ -176,19 +179,21 @@ impl Manifest {
         }
     }
 
-    /// The render command line (after `render`) of a task.
-    fn task_argv(&self, dir: &Path, t: Task) -> Vec<String> {
-        let mut argv = vec![self.scene.display().to_string()];
-        argv.extend(self.render.iter().cloned());
-        if let Some(f) = t.frame {
-            argv.extend(["--frame".into(), f.to_string()]);
-        }
-        if let Some((p, k)) = t.part {
-            let opt = if self.tiles { "--tile" } else { "--part" };
-            argv.extend([opt.into(), format!("{p}/{k}")]);
-        }
-        argv.extend(["-o".into(), dir.join(&self.stem).display().to_string()]);
-        argv
+    /// The render job of a task.
+    fn task_job(&self, dir: &Path, t: Task) -> RenderJob {
+        let mut job = self.job.clone();
+        job.frames = t.frame.map(|f| [f, f]);
+        job.split = t.part.map(|(index, count)| match self.tiles {
+            true => Split::Tile {
+                index,
+                count,
+                margin: self.tile_margin,
+            },
+            false => Split::Part { index, count },
+        });
+        job.output.stem = Some(dir.join(&self.stem));
+        job.output.sequence_outputs = false;
+        job
     }
 
     /// Whether a task's outputs exist, or for a part, its frame was already merged.
@@ -207,8 +212,12 @@ impl Manifest {
     }
 }
 
-fn parse_render(argv: &[String]) -> anyhow::Result<RenderArgs> {
-    merge::parse_render(argv).context("the render options")
+/// Parses a render command line (after `render`) as `aleph render` would.
+#[derive(Parser, Debug)]
+#[command(name = "aleph render", no_binary_name = true)]
+struct RenderLine {
+    #[command(flatten)]
+    args: RenderArgs,
 }
 
 /// Seconds since the Unix epoch.
@@ -227,28 +236,30 @@ pub fn run(args: FarmArgs) -> anyhow::Result<ExitCode> {
     }
 }
 
+/// The render options after `--` (for every task) on `scene`, checked: the farm sets the
+/// frames, the split and the outputs.
+fn render_options(scene: &Path, options: &[String]) -> anyhow::Result<RenderArgs> {
+    let mut argv = vec![scene.display().to_string()];
+    argv.extend(options.iter().cloned());
+    let args = RenderLine::try_parse_from(&argv)
+        .context("the render options")?
+        .args;
+    let set = [
+        ("-o", args.output.is_some()),
+        ("--frames", args.frames.is_some()),
+        ("--frame", args.frame.is_some()),
+        ("--part", args.part.is_some()),
+        ("--tile", args.tile.is_some()),
+    ];
+    if let Some((opt, _)) = set.iter().find(|(_, on)| *on) {
+        bail!("{opt} is the farm's to set: give the farm's own options before `--`");
+    }
+    Ok(args)
+}
+
 /// Checks the render the manifest describes before anything is queued.
 fn check_render(m: &Manifest) -> anyhow::Result<()> {
-    for opt in ["-o", "--output", "--frames", "--frame", "--part", "--tile"] {
-        if m.render
-            .iter()
-            .any(|a| a == opt || a.starts_with(&format!("{opt}=")))
-        {
-            bail!("{opt} is the farm's to set: give the farm's own options before `--`");
-        }
-    }
-    let probe = Manifest {
-        split: 1,
-        ..m.clone()
-    };
-    let args = parse_render(&probe.task_argv(
-        Path::new("."),
-        Task {
-            frame: None,
-            part: None,
-        },
-    ))?;
-    let uniform = matches!(args.sampler, SamplerArg::Uniform);
+    let uniform = m.job.criterion == Criterion::Uniform;
     if m.split > 1 && !m.tiles && !uniform {
         bail!(
             "--split-samples splits a uniform render's samples: add `-- --sampler uniform`; the \
@@ -259,13 +270,10 @@ fn check_render(m: &Manifest) -> anyhow::Result<()> {
     if m.tiles && uniform {
         bail!("--split-tiles splits an adaptive render; a uniform one splits by --split-samples");
     }
-    let scene = Scene::load_description(render::scene_description(&args, &m.scene)?)?;
-    let settings = args.sampling.settings(
-        args.sampler.into(),
-        args.spp,
-        scene.settings.spp,
-        Default::default(),
-    )?;
+    let scene = m.job.load_scene()?;
+    let settings = m
+        .job
+        .adaptive_settings(scene.settings.spp, Default::default())?;
     if m.tiles && m.split > scene.camera.height {
         bail!(
             "--split-tiles {}: more tiles than the {} rows",
@@ -280,16 +288,17 @@ fn check_render(m: &Manifest) -> anyhow::Result<()> {
             settings.uniform_total_spp()
         );
     }
+    let path = &m.job.scene.path;
     match (m.frames, scene.animation) {
         (Some([a, b]), Some(anim)) if a < anim.frame_start || b > anim.frame_end => bail!(
             "{}: frames {a}-{b} are outside the scene's {}-{}",
-            m.scene.display(),
+            path.display(),
             anim.frame_start,
             anim.frame_end
         ),
         (Some(_), None) => bail!(
             "{}: --frames needs an animated scene (this one has no [animation] table)",
-            m.scene.display()
+            path.display()
         ),
         _ => Ok(()),
     }
@@ -320,7 +329,7 @@ fn batch_scripts(m: &Manifest, dir: &Path, a: &SlurmArgs, n_tasks: usize) -> (St
         let mut s = "#!/bin/bash\n".to_string();
         s += &format!(
             "# Written by `aleph farm slurm` for {}.\n",
-            m.scene.display()
+            m.job.scene.path.display()
         );
         s += &format!("#SBATCH --job-name=aleph-{name}-{}\n", m.stem);
         for o in extra.iter().chain(&common) {
@@ -382,15 +391,15 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
         (None, Some(anim)) => Some(anim.frames),
         (None, None) => None,
     };
+    let options = render_options(&scene, &a.render)?;
     let m = Manifest {
         aleph,
-        scene,
-        cwd: std::env::current_dir().context("the working directory")?,
         stem,
         frames,
         split: a.split_samples.max(a.split_tiles),
         tiles: a.split_tiles > 1,
-        render: a.render.clone(),
+        tile_margin: options.tile_margin,
+        job: options.job()?,
     };
     check_render(&m)?;
     let n_tasks = m.tasks().len();
@@ -417,7 +426,7 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
     out.commit()?;
     println!(
         "{}: {n_tasks} tasks ({} frames × {} {}) -> {}/render.sbatch, finish.sbatch",
-        m.scene.display(),
+        m.job.scene.path.display(),
         m.frame_list().len(),
         m.split,
         if m.tiles { "tiles" } else { "parts" },
@@ -508,14 +517,8 @@ fn task(a: TaskArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let start = now_s();
-    std::env::set_current_dir(&m.cwd)
-        .with_context(|| format!("the render's working directory {}", m.cwd.display()))?;
-    let mut args = parse_render(&m.task_argv(&dir, t))?;
-    args.sequence_outputs = false;
-    if args.threads.is_none() {
-        args.threads = slurm_threads();
-    }
-    let code = render::run(args)?;
+    let job = m.task_job(&dir, t);
+    let code = with_threads(slurm_threads(), move || render::run_job(&job))??;
     let end = now_s();
     let timing = dir.join(format!("logs/task-{}.time", a.index));
     std::fs::write(&timing, format!("{start:.3} {end:.3}\n"))
@@ -602,7 +605,7 @@ fn write_preview(m: &Manifest, stem: &Path, first: i64, last: i64) -> anyhow::Re
         (w, h) = (img.width() as usize, img.height() as usize);
         displays.push((f, img.into_raw()));
     }
-    let scene = aleph::scene::SceneDescription::read(&m.scene)?;
+    let scene = aleph::scene::SceneDescription::read(&m.job.scene.path)?;
     let fps = scene
         .animation
         .map(|a| a.fps)

@@ -5,7 +5,6 @@ mod diff;
 mod farm;
 mod merge;
 mod render;
-mod sequence;
 mod speedup;
 mod tonemap;
 
@@ -41,25 +40,13 @@ enum Command {
     Farm(farm::FarmArgs),
 }
 
-/// The command line after the subcommand `name` (for the record partial films keep).
-fn argv_after(name: &str) -> Vec<String> {
-    let all: Vec<String> = std::env::args().skip(1).collect();
-    match all.iter().position(|a| a == name) {
-        Some(i) => all[i + 1..].to_vec(),
-        None => Vec::new(),
-    }
-}
-
 /// Exit status for errors (bad input, I/O failures).
 pub const EXIT_ERROR: u8 = 2;
 
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(mut args) => {
-            args.argv = argv_after("render");
-            render::run(args)
-        }
+        Command::Render(args) => render::run(args),
         Command::Merge(args) => merge::run(args),
         Command::Farm(args) => farm::run(args),
         Command::Diff(args) => diff::run(args),

@@ -3,15 +3,17 @@
 use super::tonemap::{OperatorArg, ToneArgs};
 use super::{parse_resolution, with_threads};
 use aleph::adaptive::{
-    AdaptiveResult, AdaptiveSettings, ErrorEstimate, SamplerKind, Visibility, render_adaptive,
+    AdaptiveResult, AdaptiveSettings, Criterion, ErrorEstimate, PassReport, Visibility,
 };
-use aleph::deliver::{Look, write_render};
 use aleph::display::ToneMapSettings;
-use aleph::scene::{Scene, SceneDescription};
-use aleph::sequence::AdaptationCourse;
-use anyhow::{Context, bail};
+use aleph::job::{
+    Budget, FrameDone, JobReport, Observer, PartReport, RenderJob, SamplingOptions, SequenceReport,
+    Split, TileReport, scene_name,
+};
+use aleph::scene::Scene;
+use anyhow::Context;
 use clap::{Args, ValueEnum};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use perception::tmo::Operator;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -37,12 +39,12 @@ pub enum SamplerArg {
     Variance,
 }
 
-impl From<SamplerArg> for SamplerKind {
-    fn from(s: SamplerArg) -> SamplerKind {
+impl From<SamplerArg> for Criterion {
+    fn from(s: SamplerArg) -> Criterion {
         match s {
-            SamplerArg::Perceptual => SamplerKind::Perceptual,
-            SamplerArg::Uniform => SamplerKind::Uniform,
-            SamplerArg::Variance => SamplerKind::Variance,
+            SamplerArg::Perceptual => Criterion::Perceptual,
+            SamplerArg::Uniform => Criterion::Uniform,
+            SamplerArg::Variance => Criterion::Variance,
         }
     }
 }
@@ -177,55 +179,48 @@ pub struct SamplingArgs {
 }
 
 impl SamplingArgs {
-    /// Adaptive settings for `sampler` with an optional average budget.
-    pub fn settings(
-        &self,
-        sampler: SamplerKind,
-        budget: Option<f64>,
-        uniform_spp: u32,
-        tone: ToneMapSettings,
-    ) -> anyhow::Result<AdaptiveSettings> {
-        let time_budget = match self.time {
-            Some(t) if t.is_finite() && t > 0.0 => Some(Duration::from_secs_f64(t)),
-            Some(t) => bail!("--time must be a positive number of seconds, got {t}"),
-            None => None,
-        };
-        let mut tone = tone;
-        if let Some(ppd) = self.ppd {
-            tone.view = tone.view.with_ppd(ppd).context("--ppd")?;
-        }
-        let threshold = perception::threshold::ThresholdParams {
-            adaptation_window_deg: self.adaptation_window,
-            ..AdaptiveSettings::default().threshold
-        };
-        let settings = AdaptiveSettings {
-            sampler,
-            threshold,
-            saliency_weight: self.saliency,
-            use_velocity: !self.no_velocity,
-            error_estimate: match self.error_estimate {
-                ErrorEstimateArg::HalfBuffers => ErrorEstimate::HalfBuffers,
-                ErrorEstimateArg::StandardError => ErrorEstimate::StandardError,
-            },
+    /// The adaptive-loop options of a render job.
+    pub fn options(&self) -> SamplingOptions {
+        SamplingOptions {
             min_spp: self.min_spp,
             max_spp: self.max_spp,
             steer_from_spp: self.steer_from,
-            budget_spp: budget,
-            uniform_spp,
-            time_budget,
             converged_fraction: self.converged,
             visibility: match self.visibility {
                 VisibilityArg::Display => Visibility::Display,
                 VisibilityArg::Scene => Visibility::Scene,
             },
-            tone,
-            variance_threshold: self.noise_threshold,
+            noise_threshold: self.noise_threshold,
             guide_spp: self.guide_spp,
+            error_estimate: match self.error_estimate {
+                ErrorEstimateArg::HalfBuffers => ErrorEstimate::HalfBuffers,
+                ErrorEstimateArg::StandardError => ErrorEstimate::StandardError,
+            },
+            saliency: self.saliency,
+            adaptation_window_deg: self.adaptation_window,
             latitude_ev: self.latitude,
-            rows: None,
+            ppd: self.ppd,
+            use_velocity: !self.no_velocity,
+        }
+    }
+
+    /// Adaptive settings for `criterion` with an optional average budget, through the same
+    /// render job `aleph render` builds.
+    pub fn settings(
+        &self,
+        criterion: Criterion,
+        budget: Option<f64>,
+        uniform_spp: u32,
+        tone: ToneMapSettings,
+    ) -> anyhow::Result<AdaptiveSettings> {
+        let mut job = RenderJob::new(PathBuf::new());
+        job.criterion = criterion;
+        job.budget = Budget {
+            spp: budget,
+            time_s: self.time,
         };
-        settings.validate()?;
-        Ok(settings)
+        job.sampling = self.options();
+        Ok(job.adaptive_settings(uniform_spp, tone)?)
     }
 }
 
@@ -315,13 +310,6 @@ pub struct RenderArgs {
     pub(super) sampling: SamplingArgs,
     #[command(flatten)]
     pub(super) tone: ToneArgs,
-    /// The command line after `render`, as given (recorded in partial films).
-    #[arg(skip)]
-    pub(super) argv: Vec<String>,
-    /// Whether a sequence also writes OUT.preview.png and OUT.filmstrip.png (a farm task's
-    /// single frame does not: the finishing job writes them for the whole sequence).
-    #[arg(skip = true)]
-    pub(super) sequence_outputs: bool,
 }
 
 /// Parses `I/K` with 1 ≤ I ≤ K.
@@ -336,120 +324,6 @@ pub(super) fn parse_part(s: &str) -> Result<(u32, u32), String> {
         return Err(bad());
     }
     Ok((i, k))
-}
-
-/// Output stem: explicit, or the scene's name (its directory's name for `scene.toml`).
-fn output_stem(args: &RenderArgs, scene: &Path) -> PathBuf {
-    if let Some(o) = &args.output {
-        let ext = o
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        return match ext.as_deref() {
-            Some("exr") | Some("png") => o.with_extension(""),
-            _ => o.clone(),
-        };
-    }
-    let stem = scene.file_stem().map(|s| s.to_string_lossy().to_string());
-    let name = match stem.as_deref() {
-        Some("scene") | None => scene
-            .parent()
-            .and_then(|p| p.file_name())
-            .map(|s| s.to_string_lossy().to_string())
-            .unwrap_or_else(|| "render".into()),
-        Some(s) => s.to_string(),
-    };
-    PathBuf::from(name)
-}
-
-pub use aleph::deliver::with_ext;
-
-pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
-    let scene_path = args.scene.clone().unwrap_or_else(default_scene);
-    if args.exposure.is_some_and(|e| !e.is_finite()) {
-        bail!("--exposure must be a finite number of stops");
-    }
-    if let Some(n) = args.spp
-        && !(n.is_finite() && n >= 1.0)
-    {
-        bail!("--spp must be at least 1, got {n}");
-    }
-    let desc = scene_description(&args, &scene_path)?;
-    let stem = output_stem(&args, &scene_path);
-    // Refuse an unwritable output location before rendering, not after.
-    aleph::output::check_output_location(&with_ext(&stem, "exr"))?;
-    aleph::output::check_output_location(&with_ext(&stem, "png"))?;
-    with_threads(args.threads, move || render_and_write(desc, &stem, &args))?
-}
-
-/// The scene file with the command line's overrides (resolution, seed, depth).
-pub(super) fn scene_description(
-    args: &RenderArgs,
-    scene_path: &Path,
-) -> anyhow::Result<SceneDescription> {
-    let mut desc = SceneDescription::read(scene_path)?;
-    if let Some((w, h)) = args.resolution {
-        desc.camera.resolution = [w, h];
-    }
-    if let Some(s) = args.seed {
-        desc.render.seed = Some(s);
-    }
-    if let Some(d) = args.max_depth {
-        desc.render.max_depth = Some(d);
-    }
-    Ok(desc)
-}
-
-/// Sampler settings and PNG look of a still.
-pub(super) fn still_settings(
-    scene: &Scene,
-    args: &RenderArgs,
-) -> anyhow::Result<(AdaptiveSettings, Look)> {
-    // The default display keeps highlights (Reinhard et al. 2002, white at the image's
-    // brightest pixel); `--exposure EV` asks for a plain exposure instead.
-    let op = match (args.tonemap, args.exposure) {
-        (Some(op), _) => Operator::from(op),
-        (None, Some(_)) => Operator::Exposure,
-        (None, None) => Operator::Reinhard,
-    };
-    let tone = args.tone.settings(
-        op,
-        scene.camera.width as usize,
-        scene.settings.luminance_scale,
-    )?;
-    let settings =
-        args.sampling
-            .settings(args.sampler.into(), args.spp, scene.settings.spp, tone)?;
-    let look = match (args.tonemap, args.exposure) {
-        (None, Some(ev)) => Look::Exposure(Some(ev)),
-        _ => Look::Tone(settings.tone),
-    };
-    Ok((settings, look))
-}
-
-/// Sampler settings and PNG look of the scene's current frame of a sequence whose viewer
-/// adaptation is `course` (PTYG by default).
-pub(super) fn frame_settings(
-    scene: &Scene,
-    args: &RenderArgs,
-    course: &AdaptationCourse,
-) -> anyhow::Result<(AdaptiveSettings, Look)> {
-    let op = match (args.tonemap, args.exposure) {
-        (Some(op), _) => Operator::from(op),
-        (None, Some(_)) => Operator::Exposure,
-        (None, None) => Operator::Ptyg,
-    };
-    let w = scene.camera.width as usize;
-    let mut tone = args.tone.settings(op, w, scene.settings.luminance_scale)?;
-    tone.adaptation_state = Some(course.state_at(scene.frame.index));
-    let settings =
-        args.sampling
-            .settings(args.sampler.into(), args.spp, scene.settings.spp, tone)?;
-    let look = match args.exposure {
-        Some(ev) => Look::Exposure(Some(ev)),
-        None => Look::Tone(settings.tone),
-    };
-    Ok((settings, look))
 }
 
 /// Parses `A-B`, `A..B` or a single frame `N`.
@@ -473,72 +347,206 @@ pub(super) fn parse_frames(s: &str) -> Result<(i64, i64), String> {
     Ok((a, b))
 }
 
-fn render_and_write(
-    desc: SceneDescription,
-    stem: &Path,
-    args: &RenderArgs,
-) -> anyhow::Result<ExitCode> {
+/// Output stem of `-o`: an `.exr`/`.png` extension is dropped.
+pub(super) fn strip_image_ext(o: &Path) -> PathBuf {
+    let ext = o
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("exr") | Some("png") => o.with_extension(""),
+        _ => o.to_path_buf(),
+    }
+}
+
+impl RenderArgs {
+    /// The render job these arguments describe: the scene made absolute, `-o` (or the scene's
+    /// name in the working directory) as the output stem.
+    pub(super) fn job(&self) -> anyhow::Result<RenderJob> {
+        let scene = self.scene.clone().unwrap_or_else(default_scene);
+        let absolute =
+            std::path::absolute(&scene).with_context(|| format!("{}", scene.display()))?;
+        let mut job = RenderJob::new(absolute);
+        job.criterion = self.sampler.into();
+        job.frames = match (self.frames, self.frame) {
+            (Some((a, b)), _) => Some([a, b]),
+            (None, Some(f)) => Some([f, f]),
+            (None, None) => None,
+        };
+        job.scene.resolution = self.resolution.map(|(w, h)| [w, h]);
+        job.scene.seed = self.seed;
+        job.scene.max_depth = self.max_depth;
+        job.budget = Budget {
+            spp: self.spp,
+            time_s: self.sampling.time,
+        };
+        job.sampling = self.sampling.options();
+        job.display = self
+            .tone
+            .display(self.tonemap.map(Operator::from), self.exposure);
+        job.split = match (self.part, self.tile) {
+            (Some((index, count)), _) => Some(Split::Part { index, count }),
+            (None, Some((index, count))) => Some(Split::Tile {
+                index,
+                count,
+                margin: self.tile_margin,
+            }),
+            (None, None) => None,
+        };
+        job.output.stem = Some(match &self.output {
+            Some(o) => strip_image_ext(o),
+            None => PathBuf::from(scene_name(&scene)),
+        });
+        job.output.aov = self.aov;
+        job.validate()?;
+        Ok(job)
+    }
+}
+
+pub use aleph::deliver::with_ext;
+
+pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
+    let job = args.job()?;
+    with_threads(args.threads, move || run_job(&job))?
+}
+
+/// Renders `job` with progress bars on stderr and a summary line per frame (and per part,
+/// tile or sequence) on stdout.
+pub(super) fn run_job(job: &RenderJob) -> anyhow::Result<ExitCode> {
     let start = std::time::Instant::now();
-    let mut scene = Scene::load_description(desc)?;
+    let scene = job.load_scene()?;
     eprintln!("{}", load_line(&scene, start.elapsed()));
-    if let Some(part) = args.part {
-        return super::merge::render_part_file(scene, stem, args, part);
-    }
-    if let Some(tile) = args.tile {
-        return super::merge::render_tile_file(scene, stem, args, tile);
-    }
-    let range = match (args.frames, args.frame, scene.animation) {
-        (Some(r), _, _) => Some(r),
-        (_, Some(f), _) => Some((f, f)),
-        (None, None, Some(a)) => Some((a.frame_start, a.frame_end)),
-        (None, None, None) => None,
-    };
-    if let Some((first, last)) = range {
-        if scene.animation.is_none() {
-            bail!(
-                "{}: --frames/--frame need an animated scene (this one has no [animation] table)",
-                scene.path.display()
-            );
+    let observer = CliObserver::new(job.criterion.name());
+    let report = aleph::job::run_on(job, &scene, &observer);
+    observer.finish();
+    match report? {
+        JobReport::Still => {}
+        JobReport::Sequence(r) => {
+            if r.previews.is_some() {
+                println!("{}", sequence_line(&scene, &r));
+            }
         }
-        scene.set_frame(first)?;
-        scene.set_frame(last)?;
-        return super::sequence::render_sequence(&mut scene, first, last, stem, args);
+        JobReport::Part(r) => println!("{}", part_line(&scene, &r)),
+        JobReport::Tile(r) => println!("{}", tile_line(&scene, &r)),
     }
-    let (settings, look) = still_settings(&scene, args)?;
-    let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
-    bar.set_style(ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap());
-    bar.enable_steady_tick(Duration::from_millis(200));
-    let result = render_with_progress(&scene, &settings, &bar, "")?;
-    bar.finish_and_clear();
-    let written = write_render(&scene, stem, &settings, &result, look, args.aov)?;
-    println!(
-        "{}",
-        summary_line(&scene, &settings, &result, stem, &written.look)
-    );
     Ok(ExitCode::SUCCESS)
 }
 
-/// Runs the adaptive loop with a spinner message per pass (`prefix` before it).
-pub(super) fn render_with_progress(
-    scene: &Scene,
-    settings: &AdaptiveSettings,
-    bar: &ProgressBar,
-    prefix: &str,
-) -> anyhow::Result<AdaptiveResult> {
-    let name = settings.sampler.name();
-    Ok(render_adaptive(
-        scene,
-        settings,
-        &|p| {
-            bar.set_message(format!(
-                "{prefix}{name}: pass {}, {:.1} spp mean, {:.1} % converged",
-                p.pass,
-                p.mean_spp,
-                100.0 * p.converged_fraction
-            ))
-        },
-        &|_| {},
-    )?)
+/// Progress bars (a sequence's frames, the current frame's passes) and summary lines.
+struct CliObserver {
+    multi: MultiProgress,
+    sequence: std::sync::Mutex<Option<ProgressBar>>,
+    frame: ProgressBar,
+    criterion: &'static str,
+}
+
+impl CliObserver {
+    fn new(criterion: &'static str) -> CliObserver {
+        let multi = MultiProgress::with_draw_target(ProgressDrawTarget::stderr());
+        let frame = multi.add(ProgressBar::new_spinner());
+        frame.set_style(ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap());
+        frame.enable_steady_tick(Duration::from_millis(200));
+        CliObserver {
+            multi,
+            sequence: std::sync::Mutex::new(None),
+            frame,
+            criterion,
+        }
+    }
+
+    fn finish(&self) {
+        self.frame.finish_and_clear();
+        if let Some(bar) = self.sequence.lock().unwrap().take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+impl Observer for CliObserver {
+    fn sequence_started(&self, first: i64, last: i64) {
+        let bar = self
+            .multi
+            .insert(0, ProgressBar::new(last.abs_diff(first) + 1));
+        bar.set_style(
+            ProgressStyle::with_template(
+                "sequence {pos}/{len} frames [{bar:30}] {elapsed} (eta {eta})",
+            )
+            .unwrap(),
+        );
+        *self.sequence.lock().unwrap() = Some(bar);
+    }
+
+    fn pass(&self, frame: Option<i64>, p: &PassReport) {
+        let prefix = frame.map(|f| format!("frame {f}: ")).unwrap_or_default();
+        self.frame.set_message(format!(
+            "{prefix}{}: pass {}, {:.1} spp mean, {:.1} % converged",
+            self.criterion,
+            p.pass,
+            p.mean_spp,
+            100.0 * p.converged_fraction
+        ));
+    }
+
+    fn frame_done(&self, d: &FrameDone<'_>) {
+        let stem = d.stem.map(Path::to_path_buf).unwrap_or_default();
+        let line = summary_line(d.scene, d.settings, d.result, &stem, d.look);
+        self.multi.suspend(|| println!("{line}"));
+        if let Some(bar) = self.sequence.lock().unwrap().as_ref() {
+            bar.inc(1);
+        }
+        self.frame.reset_elapsed();
+    }
+}
+
+/// The closing line of a sequence.
+fn sequence_line(scene: &Scene, r: &SequenceReport) -> String {
+    let (first, last) = r.frames;
+    let n = (last - first + 1) as f64;
+    let wall = r.wall.as_secs_f64();
+    let (preview, strip) = r.previews.clone().unwrap_or_default();
+    format!(
+        "{}: sequence of {n} frames ({first}-{last} at {} fps), {:.1} spp mean, {wall:.1} s \
+         ({:.2} s/frame; {:.2} s adaptation pre-passes, {:.2} s perception) -> {}, {}",
+        scene.path.display(),
+        r.fps,
+        r.mean_spp,
+        wall / n,
+        r.prepass.as_secs_f64(),
+        r.perception.as_secs_f64(),
+        preview.display(),
+        strip.display(),
+    )
+}
+
+/// The line of a sample part.
+fn part_line(scene: &Scene, r: &PartReport) -> String {
+    let ((i, k), (a, b)) = (r.part, r.samples);
+    let secs = r.stats.wall.as_secs_f64();
+    format!(
+        "{}: part {i}/{k}: samples {a}..{b} of {} per pixel, {}×{}, {secs:.2} s rendering, \
+         {:.2} M samples/s -> {}",
+        scene.path.display(),
+        r.spp,
+        scene.camera.width,
+        scene.camera.height,
+        r.stats.samples as f64 / secs.max(1e-9) / 1e6,
+        r.path.display()
+    )
+}
+
+/// The line of a row tile.
+fn tile_line(scene: &Scene, r: &TileReport) -> String {
+    let ((i, k), (y0, y1), (s0, s1)) = (r.tile, r.rows, r.sampled_rows);
+    format!(
+        "{}: tile {i}/{k}: rows {y0}..{y1} (samples in rows {s0}..{s1}), {:.1} spp mean over \
+         the tile, {:.1} spp in all, {}, {:.2} s -> {}",
+        scene.path.display(),
+        r.mean_spp.0,
+        r.mean_spp.1,
+        r.stop.describe(),
+        r.wall.as_secs_f64(),
+        r.path.display()
+    )
 }
 
 /// Where a render's wall time went: first pass, later passes, guide, perception.
@@ -604,7 +612,7 @@ pub(super) fn summary_line(
          {:.2} s ({}), {:.2} M samples/s, {:.2} M rays/s, {} non-finite samples dropped, \
          viewer at {:.1} pixels per degree -> {}, {} ({look})",
         scene.path.display(),
-        settings.sampler.name(),
+        settings.criterion.name(),
         result.mean_spp(),
         result.passes.len(),
         if guide > 0 {
@@ -618,7 +626,7 @@ pub(super) fn summary_line(
                 "{:.1} % of pixels below threshold",
                 100.0 * result.converged_fraction
             ),
-            None if settings.sampler != SamplerKind::Uniform && !settings.steers() => format!(
+            None if settings.criterion != Criterion::Uniform && !settings.steers() => format!(
                 "budget under --steer-from {} spp: rendered uniformly, nothing judged",
                 settings.steer_from_spp
             ),

@@ -3,7 +3,7 @@
 use super::render::{SamplingArgs, default_scene};
 use super::tonemap::{OperatorArg, ToneArgs};
 use super::{parse_resolution, with_threads};
-use aleph::adaptive::SamplerKind;
+use aleph::adaptive::Criterion;
 use aleph::output::{AtomicOutputs, write_png};
 use aleph::scene::SceneDescription;
 use aleph::speedup::{
@@ -104,7 +104,7 @@ fn run_sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::
     let tone = args.tone.settings(Operator::Exposure, w, 1.0)?;
     let base = args
         .sampling
-        .settings(SamplerKind::Perceptual, None, 1, tone)?;
+        .settings(Criterion::Perceptual, None, 1, tone)?;
     let result = sweep(desc, dir, &spec, &base, &|line| eprintln!("{line}"))?;
     let report = report(&result, args, &scene_name(args));
     print!("{report}");

@@ -2,12 +2,12 @@
 
 use aleph::display::{ToneMapSettings, contact_sheet, tone_map};
 use aleph::imageio::read_image;
+use aleph::job::DisplaySpec;
 use aleph::output::{AtomicOutputs, encode_srgb8, write_exr, write_png};
 use anyhow::bail;
 use clap::{Args, ValueEnum};
 use perception::adaptation::AdaptationMode;
-use perception::tmo::{Display, Operator};
-use perception::viewing::ViewingConditions;
+use perception::tmo::Operator;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -81,29 +81,29 @@ pub struct ToneArgs {
 }
 
 impl ToneArgs {
+    /// The display of a render job with `operator` and `exposure_ev` (the render's own flags).
+    pub fn display(&self, operator: Option<Operator>, exposure_ev: Option<f32>) -> DisplaySpec {
+        DisplaySpec {
+            operator,
+            exposure_ev,
+            adaptation: self.adaptation.into(),
+            max_cd_m2: self.display_max,
+            ambient_cd_m2: self.display_ambient,
+            fov_deg: self.fov,
+        }
+    }
+
+    /// Tone-map settings with `op` for an image `width` pixels wide, `luminance_scale` cd/m²
+    /// per unit.
     pub fn settings(
         &self,
         op: Operator,
         width: usize,
         luminance_scale: f32,
     ) -> anyhow::Result<ToneMapSettings> {
-        let view = match self.fov {
-            Some(f) => ViewingConditions::from_fov(f, width as f64)?,
-            None => ViewingConditions::default(),
-        };
-        let display = Display {
-            max_cd_m2: self.display_max,
-            ambient_cd_m2: self.display_ambient,
-        };
-        display.validate()?;
-        Ok(ToneMapSettings {
-            operator: op,
-            adaptation: self.adaptation.into(),
-            view,
-            display,
-            luminance_scale,
-            adaptation_state: None,
-        })
+        Ok(self
+            .display(Some(op), None)
+            .tone_settings(op, width, luminance_scale)?)
     }
 }
 

@@ -1,6 +1,6 @@
 //! Reading the TOML scene description and its OBJ/MTL files.
 
-use super::{RenderSettings, Scene};
+use super::{RenderSettings, Scene, World};
 use crate::animation::{
     AnimationSettings, CameraKey, CameraTrack, DEFAULT_SHUTTER, FrameTime, TransformKey,
     TransformTrack,
@@ -18,6 +18,7 @@ use serde::Deserialize;
 use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Fixed-length arrays that refuse extra or missing elements: serde's own array impl reads the
 /// first N elements and the TOML deserializer then drops the rest silently
@@ -465,22 +466,24 @@ impl SceneDescription {
                 .collect(),
             masks: b.masks,
         }));
-        let mut scene = Scene {
+        let scene = Scene {
             camera,
             settings,
-            geometry,
-            materials: b.materials,
-            textures: b.textures,
-            lights,
+            world: Arc::new(World {
+                geometry,
+                materials: b.materials,
+                textures: b.textures,
+                lights,
+            }),
             path: self.path,
             animation,
             camera_track,
             frame: FrameTime::STILL,
         };
-        if let Some(a) = animation {
-            scene.set_frame(a.frame_start)?;
+        match animation {
+            Some(a) => scene.at_frame(a.frame_start),
+            None => Ok(scene),
         }
-        Ok(scene)
     }
 
     /// Loads every `[[mesh]]` into `b`; returns the tracks of the moving ones (instance i has

@@ -45,6 +45,7 @@ use crate::light::Lights;
 use crate::material::Material;
 use crate::texture::Texture;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Key of the shutter-time stream (independent of the path's stream).
 const TIME_STREAM_KEY: u64 = 0xBB67_AE85_84CA_A73B;
@@ -97,12 +98,10 @@ impl Default for RenderSettings {
     }
 }
 
-/// A loaded scene: geometry with its BVH, materials, textures, lights, camera and settings.
-pub struct Scene {
-    /// The camera.
-    pub camera: Camera,
-    /// Render settings.
-    pub settings: RenderSettings,
+/// What a scene holds for all its frames: triangles with their BVH, materials, textures and
+/// lights. It is built once by the loader and shared (behind an [`Arc`]) by every frame view
+/// of the scene ([`Scene::at_frame`]); nothing changes it after loading.
+pub struct World {
     /// Triangles and acceleration structure.
     pub geometry: Geometry,
     /// Materials, indexed by `TriangleAttributes::material`.
@@ -111,6 +110,22 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// Emitters.
     pub lights: Lights,
+}
+
+/// A loaded scene at one frame: the shared [`World`] (reached through `Deref`, so
+/// `scene.geometry` reads the world's), the camera's pose and the shutter of that frame, and
+/// the render settings.
+///
+/// A scene is never moved from frame to frame: [`Scene::at_frame`] returns another view of the
+/// same world, at the cost of a camera, so a frame's time is always passed in, never set.
+#[derive(Clone)]
+pub struct Scene {
+    /// The camera, posed for [`Scene::frame`].
+    pub camera: Camera,
+    /// Render settings.
+    pub settings: RenderSettings,
+    /// Geometry, materials, textures and lights, shared by every frame view.
+    pub world: Arc<World>,
     /// The scene file this came from.
     pub path: PathBuf,
     /// `[animation]`, if the scene is a sequence.
@@ -118,8 +133,16 @@ pub struct Scene {
     /// The camera's keys, if it moves (`camera` is then its pose at the current frame's
     /// instant).
     pub camera_track: Option<CameraTrack>,
-    /// The frame being rendered ([`FrameTime::STILL`] for a still).
+    /// The frame this view renders ([`FrameTime::STILL`] for a still; a loaded animated scene
+    /// is at its first frame).
     pub frame: FrameTime,
+}
+
+impl std::ops::Deref for Scene {
+    type Target = World;
+    fn deref(&self) -> &World {
+        &self.world
+    }
 }
 
 impl Scene {
@@ -142,19 +165,20 @@ impl Scene {
         }
     }
 
-    /// Makes `index` the current frame: its shutter, its seed and its camera.
+    /// The same scene at frame `index`: its shutter, its seed and its camera's pose. The view
+    /// shares this one's world; `self` is unchanged.
     ///
     /// # Errors
     /// [`SceneError::Invalid`] if the scene has no `[animation]` (and `index` is not 0) or
     /// `index` is outside its frame range.
-    pub fn set_frame(&mut self, index: i64) -> SceneResult<()> {
+    pub fn at_frame(&self, index: i64) -> SceneResult<Scene> {
         let invalid = |message: String| SceneError::Invalid {
             path: self.path.clone(),
             message,
         };
         let Some(anim) = self.animation else {
             if index == 0 {
-                return Ok(());
+                return Ok(self.clone());
             }
             return Err(invalid(format!(
                 "frame {index}: the scene is a still (it has no [animation] table)"
@@ -166,11 +190,12 @@ impl Scene {
                 anim.frame_start, anim.frame_end
             )));
         }
-        self.frame = anim.frame(index);
+        let mut view = self.clone();
+        view.frame = anim.frame(index);
         if let Some(track) = &self.camera_track {
             let (lens, focus) = (self.camera.lens_radius, self.camera.focus_distance);
-            self.camera = Camera::from_key(
-                &track.at(self.frame.time_s as f32),
+            view.camera = Camera::from_key(
+                &track.at(view.frame.time_s as f32),
                 self.camera.width,
                 self.camera.height,
             )
@@ -181,7 +206,7 @@ impl Scene {
                 ))
             })?;
         }
-        Ok(())
+        Ok(view)
     }
 
     /// The camera at scene time `time` (seconds): the keyed pose for a moving camera, else the

@@ -4,7 +4,7 @@ use super::{
     Ceiling, GRADES_EV, Judge, Scores, ceiling, flip_coefficients, oracle_allocations,
     rank_correlation, relative_sample_cost,
 };
-use crate::adaptive::{AdaptiveSettings, SamplerKind, render_adaptive};
+use crate::adaptive::{AdaptiveSettings, Criterion, render_adaptive};
 use crate::display::FrozenToneMap;
 use crate::film::Film;
 use crate::integrator::Strategy;
@@ -12,7 +12,7 @@ use crate::output::false_colour;
 use crate::output::{AtomicOutputs, ChannelData, OutputError, write_exr, write_png};
 use crate::render::{pixel_costs, render_uniform};
 use crate::scene::{Scene, SceneDescription};
-use crate::sequence::AdaptationCourse;
+use crate::sequence::Sequence;
 use perception::tmo::Operator;
 use perception::viewing::ViewingConditions;
 use std::fmt::Write as _;
@@ -54,11 +54,11 @@ impl Arm {
     }
 
     /// The sampler it runs.
-    pub fn sampler(self) -> SamplerKind {
+    pub fn sampler(self) -> Criterion {
         match self {
-            Arm::Uniform => SamplerKind::Uniform,
-            Arm::Variance => SamplerKind::Variance,
-            Arm::Perceptual | Arm::PerceptualNoVelocity => SamplerKind::Perceptual,
+            Arm::Uniform => Criterion::Uniform,
+            Arm::Variance => Criterion::Variance,
+            Arm::Perceptual | Arm::PerceptualNoVelocity => Criterion::Perceptual,
         }
     }
 }
@@ -459,18 +459,19 @@ pub fn sweep(
     ref_desc.render.seed = Some(spec.seed ^ REFERENCE_SEED_XOR);
     let mut test_desc = desc.clone();
     test_desc.render.seed = Some(spec.seed);
-    let mut scene = Scene::load_description(test_desc)?;
-    let mut ref_scene = Scene::load_description(ref_desc)?;
+    let scene = Scene::load_description(test_desc)?;
+    let ref_scene = Scene::load_description(ref_desc)?;
     let frames = frame_list(&scene, spec.frames)?;
     // Only now that the scene loads: a failed run leaves no empty directory behind.
     std::fs::create_dir_all(dir).map_err(|source| SpeedupError::Dir {
         path: dir.to_path_buf(),
         source,
     })?;
-    let course = match frames.last() {
-        Some(Some(last)) => AdaptationCourse::compute(&mut scene, *last)?,
+    let sequence = match (frames.first(), frames.last()) {
+        (Some(Some(first)), Some(Some(last))) => Some(Sequence::new(&scene, *first, *last)?),
         _ => None,
     };
+    let course = sequence.as_ref().map(Sequence::course);
     let arms: &[Arm] = if course.is_some() {
         &Arm::ALL
     } else {
@@ -496,14 +497,17 @@ pub fn sweep(
         view: base.tone.view,
     };
     for (k, &frame) in frames.iter().enumerate() {
-        if let Some(f) = frame {
-            scene.set_frame(f)?;
-            ref_scene.set_frame(f)?;
-        }
+        let (scene, ref_scene, adaptation) = match (frame, &sequence) {
+            (Some(f), Some(seq)) => {
+                let ctx = seq.frame(f)?;
+                (ctx.scene, ref_scene.at_frame(f)?, Some(ctx.adaptation))
+            }
+            _ => (scene.clone(), ref_scene.clone(), None),
+        };
         let mut tone = base.tone;
         tone.operator = operator;
         tone.luminance_scale = scene.settings.luminance_scale;
-        tone.adaptation_state = course.as_ref().zip(frame).map(|(c, f)| c.state_at(f));
+        tone.adaptation_state = adaptation;
         // Only a sweep with a ceiling (three uniform budgets or more) uses the cost map.
         if k == 0 && spec.budgets.len() >= 3 {
             let t = Instant::now();
@@ -758,7 +762,7 @@ fn sweep_frame(
     for (bi, &budget) in spec.budgets.iter().enumerate() {
         for (ai, &arm) in ctx.arms.iter().enumerate() {
             let settings = AdaptiveSettings {
-                sampler: arm.sampler(),
+                criterion: arm.sampler(),
                 budget_spp: Some(budget),
                 uniform_spp: budget as u32,
                 tone: ctx.tone,
@@ -773,7 +777,7 @@ fn sweep_frame(
     if spec.stop {
         // `aleph render`'s own stop: no budget, until the converged fraction (or a cap).
         let settings = AdaptiveSettings {
-            sampler: SamplerKind::Perceptual,
+            criterion: Criterion::Perceptual,
             budget_spp: None,
             tone: ctx.tone,
             ..base.clone()

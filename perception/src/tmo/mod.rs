@@ -26,8 +26,10 @@ pub mod ward97;
 
 use crate::error::{PerceptionError, Result, check_image};
 
-/// The operators, for command lines and contact sheets.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The operators, for command lines, render jobs and contact sheets (serialized by their
+/// command-line names: `exposure`, `tr`, `fpsg`, `wrp`, `ptyg`, `reinhard`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Operator {
     /// Constant scaling (exposure).
     Exposure,

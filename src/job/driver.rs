@@ -1,0 +1,389 @@
+//! The driver: one [`RenderJob`] from a loaded scene to its files, for stills, sequences
+//! (the library's single frame loop, [`crate::sequence::Sequence`]), sample parts and row
+//! tiles. Progress and each frame's result reach an [`Observer`]; the CLI's progress bars and
+//! summary lines are one.
+
+use super::{JobError, RenderJob, Split, content_hash};
+use crate::adaptive::{AdaptiveResult, AdaptiveSettings, PassReport, render_adaptive};
+use crate::deliver::{Look, numbered, with_ext, write_render, write_sequence_outputs};
+use crate::display::ToneMapSettings;
+use crate::partial::{part_path, part_range, render_part, tile_of, write_partial};
+use crate::render::RenderStats;
+use crate::scene::Scene;
+use crate::sequence::Sequence;
+use perception::tmo::pattanaik00::AdaptationState;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// What a render reports while it runs. Every method has an empty default; `()` observes
+/// nothing. Called from the rendering thread (never from rayon's workers, except
+/// [`Observer::samples`], hence `Sync`).
+pub trait Observer: Sync {
+    /// The scene was loaded in `load` (by [`run`]; [`run_on`] is handed a loaded scene).
+    fn loaded(&self, _scene: &Scene, _load: Duration) {}
+    /// A sequence of frames `first..=last` starts (after its adaptation pre-passes).
+    fn sequence_started(&self, _first: i64, _last: i64) {}
+    /// A pass of the adaptive loop ended (`frame`: the frame number in a sequence).
+    fn pass(&self, _frame: Option<i64>, _report: &PassReport) {}
+    /// Samples were taken (called from worker threads, often).
+    fn samples(&self, _n: u64) {}
+    /// A frame (or the still) was rendered and, with an output stem, written.
+    fn frame_done(&self, _done: &FrameDone<'_>) {}
+}
+
+impl Observer for () {}
+
+/// One rendered frame, as [`Observer::frame_done`] sees it.
+pub struct FrameDone<'a> {
+    /// The scene at the frame.
+    pub scene: &'a Scene,
+    /// The settings it was rendered with.
+    pub settings: &'a AdaptiveSettings,
+    /// The film, maps and statistics.
+    pub result: &'a AdaptiveResult,
+    /// The frame's output stem (`None` when the job writes no files).
+    pub stem: Option<&'a Path>,
+    /// Words for the summary: the operator or exposure of the PNG.
+    pub look: &'a str,
+}
+
+/// What a job did, beyond its frames.
+#[derive(Clone, Debug)]
+pub enum JobReport {
+    /// A still.
+    Still,
+    /// A sequence.
+    Sequence(SequenceReport),
+    /// A sample part (`--part`).
+    Part(PartReport),
+    /// A row tile (`--tile`).
+    Tile(TileReport),
+}
+
+/// A rendered sequence.
+#[derive(Clone, Debug)]
+pub struct SequenceReport {
+    /// First and last frame.
+    pub frames: (i64, i64),
+    /// Frames per second.
+    pub fps: f64,
+    /// Mean samples per pixel over all frames.
+    pub mean_spp: f64,
+    /// Wall time of the whole sequence.
+    pub wall: Duration,
+    /// Wall time of the adaptation pre-passes.
+    pub prepass: Duration,
+    /// Wall time of the perception model's decisions, all frames.
+    pub perception: Duration,
+    /// The animated preview and filmstrip, when written.
+    pub previews: Option<(PathBuf, PathBuf)>,
+}
+
+/// A rendered sample part.
+#[derive(Clone, Debug)]
+pub struct PartReport {
+    /// Part I of K.
+    pub part: (u32, u32),
+    /// The sample indices `first..end` every pixel holds, of `spp`.
+    pub samples: (u32, u32),
+    /// Samples per pixel of the whole render.
+    pub spp: u32,
+    /// Rendering statistics.
+    pub stats: RenderStats,
+    /// The partial film written.
+    pub path: PathBuf,
+}
+
+/// A rendered row tile.
+#[derive(Clone, Debug)]
+pub struct TileReport {
+    /// Tile I of K.
+    pub tile: (u32, u32),
+    /// The tile's rows `start..end`.
+    pub rows: (u32, u32),
+    /// The rows that took samples (the tile and its margins).
+    pub sampled_rows: (u32, u32),
+    /// Mean spp over the tile's rows, and all samples over those rows' pixels.
+    pub mean_spp: (f64, f64),
+    /// Why the loop stopped.
+    pub stop: crate::adaptive::StopReason,
+    /// Wall time of the adaptive loop.
+    pub wall: Duration,
+    /// The partial film written.
+    pub path: PathBuf,
+}
+
+/// Loads the job's scene and renders it ([`run_on`]).
+///
+/// # Errors
+/// [`JobError`], naming the scene file, the frame or the setting; no file is replaced then
+/// (outputs are written all or nothing, frame by frame).
+pub fn run(job: &RenderJob, observer: &dyn Observer) -> Result<JobReport, JobError> {
+    job.validate()?;
+    let start = Instant::now();
+    let scene = job.load_scene()?;
+    observer.loaded(&scene, start.elapsed());
+    run_on(job, &scene, observer)
+}
+
+/// Renders `job` on `scene` (loaded from the job's scene, at its first frame): a still, the
+/// frames of a sequence, or one part of a frame.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_on(
+    job: &RenderJob,
+    scene: &Scene,
+    observer: &dyn Observer,
+) -> Result<JobReport, JobError> {
+    job.validate()?;
+    if let Some(stem) = &job.output.stem {
+        crate::output::check_output_location(&with_ext(stem, "exr"))?;
+        crate::output::check_output_location(&with_ext(stem, "png"))?;
+    }
+    if let Some(split) = job.split {
+        return match split {
+            Split::Part { index, count } => {
+                render_sample_part(job, scene, (index, count)).map(JobReport::Part)
+            }
+            Split::Tile {
+                index,
+                count,
+                margin,
+            } => render_tile(job, scene, (index, count), margin, observer).map(JobReport::Tile),
+        };
+    }
+    let range = match (job.frames, scene.animation) {
+        (Some([a, b]), _) => Some((a, b)),
+        (None, Some(a)) => Some((a.frame_start, a.frame_end)),
+        (None, None) => None,
+    };
+    match range {
+        Some((first, last)) => {
+            render_sequence(job, scene, first, last, observer).map(JobReport::Sequence)
+        }
+        None => {
+            let (settings, look) = job.settings(scene, None)?;
+            let stem = job.output.stem.as_deref();
+            render_frame(job, scene, &settings, look, stem, observer)?;
+            Ok(JobReport::Still)
+        }
+    }
+}
+
+/// Renders one frame with `settings`, writes it to `stem` (if any) and reports it.
+fn render_frame(
+    job: &RenderJob,
+    scene: &Scene,
+    settings: &AdaptiveSettings,
+    look: Look,
+    stem: Option<&Path>,
+    observer: &dyn Observer,
+) -> Result<(AdaptiveResult, Vec<u8>), JobError> {
+    let result = adaptive(scene, settings, observer)?;
+    let (display, look) = match stem {
+        Some(stem) => {
+            let w = write_render(scene, stem, settings, &result, look, job.output.aov)?;
+            (w.display, w.look)
+        }
+        None => (Vec::new(), look.describe()),
+    };
+    observer.frame_done(&FrameDone {
+        scene,
+        settings,
+        result: &result,
+        stem,
+        look: &look,
+    });
+    Ok((result, display))
+}
+
+/// The adaptive loop with the observer's progress.
+fn adaptive(
+    scene: &Scene,
+    settings: &AdaptiveSettings,
+    observer: &dyn Observer,
+) -> Result<AdaptiveResult, JobError> {
+    let frame = scene.animation.map(|_| scene.frame.index);
+    Ok(render_adaptive(
+        scene,
+        settings,
+        &|p| observer.pass(frame, p),
+        &|n| observer.samples(n),
+    )?)
+}
+
+/// Frames `first..=last`: the viewer's adaptation carried across them, numbered outputs, and
+/// the animated preview and filmstrip.
+fn render_sequence(
+    job: &RenderJob,
+    scene: &Scene,
+    first: i64,
+    last: i64,
+    observer: &dyn Observer,
+) -> Result<SequenceReport, JobError> {
+    let start = Instant::now();
+    let sequence = Sequence::new(scene, first, last)?;
+    observer.sequence_started(first, last);
+    let stem = job.output.stem.as_deref();
+    let mut displays = Vec::new();
+    let (mut samples, mut pixels, mut perception) = (0u64, 0u64, Duration::ZERO);
+    for frame in sequence.frames() {
+        let frame = frame?;
+        let (settings, look) = job.settings(&frame.scene, Some(frame.adaptation))?;
+        let fstem = stem.map(|s| numbered(s, frame.index));
+        let (result, display) = render_frame(
+            job,
+            &frame.scene,
+            &settings,
+            look,
+            fstem.as_deref(),
+            observer,
+        )?;
+        samples += result.film.total_samples();
+        pixels += result.film.len() as u64;
+        perception += result.decision_time;
+        displays.push((frame.index, display));
+    }
+    let previews = match stem {
+        Some(stem) if job.output.sequence_outputs => {
+            let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+            Some(write_sequence_outputs(
+                stem,
+                &displays,
+                w,
+                h,
+                sequence.fps(),
+            )?)
+        }
+        _ => None,
+    };
+    Ok(SequenceReport {
+        frames: (first, last),
+        fps: sequence.fps(),
+        mean_spp: samples as f64 / pixels.max(1) as f64,
+        wall: start.elapsed(),
+        prepass: sequence.prepass_time(),
+        perception,
+        previews,
+    })
+}
+
+/// The one frame a part or tile renders: the scene at it, the viewer's adaptation there (a
+/// sequence's course runs from the animation's first frame) and the frame's output stem.
+pub(super) fn split_frame(
+    job: &RenderJob,
+    scene: &Scene,
+    stem: &Path,
+) -> Result<(Scene, Option<AdaptationState>, PathBuf), JobError> {
+    let bad = |m: &str| Err(JobError::Invalid(format!("{}: {m}", scene.path.display())));
+    match (job.frames, scene.animation) {
+        (Some([f, _]), Some(_)) => {
+            let frame = Sequence::new(scene, f, f)?.frame(f)?;
+            Ok((frame.scene, Some(frame.adaptation), numbered(stem, f)))
+        }
+        (Some(_), None) => {
+            bad("--frame needs an animated scene (this one has no [animation] table)")
+        }
+        (None, Some(_)) => {
+            bad("--part/--tile on an animated scene render one frame: give --frame N")
+        }
+        (None, None) => Ok((scene.clone(), None, stem.to_path_buf())),
+    }
+}
+
+/// The record a part keeps: the job without split and outputs, with the scene's absolute path
+/// and content hash.
+pub(super) fn part_record(job: &RenderJob) -> Result<String, JobError> {
+    let mut record = job.clone();
+    record.split = None;
+    record.output = Default::default();
+    let path =
+        std::path::absolute(&job.scene.path).map_err(|source| crate::error::SceneError::Io {
+            path: job.scene.path.clone(),
+            source,
+        })?;
+    record.scene.content_hash = Some(content_hash(&path)?);
+    record.scene.path = path;
+    Ok(record.to_toml())
+}
+
+/// The output stem a split job needs.
+fn split_stem(job: &RenderJob) -> Result<&Path, JobError> {
+    job.output.stem.as_deref().ok_or_else(|| {
+        JobError::Invalid(
+            "a part or tile is written to a file: the job needs an output stem".into(),
+        )
+    })
+}
+
+/// Samples (I−1)·N/K .. I·N/K of every pixel, to `STEM[.NNNN].part-I-of-K.exr`.
+fn render_sample_part(
+    job: &RenderJob,
+    scene: &Scene,
+    (i, k): (u32, u32),
+) -> Result<PartReport, JobError> {
+    let (scene, _, stem) = split_frame(job, scene, split_stem(job)?)?;
+    let settings = job.adaptive_settings(scene.settings.spp, ToneMapSettings::default())?;
+    let spp = settings.uniform_total_spp();
+    if k > spp {
+        return Err(JobError::Invalid(format!(
+            "--part {i}/{k}: {k} parts of {spp} samples per pixel would leave parts empty"
+        )));
+    }
+    let record = part_record(job)?;
+    let path = part_path(&stem, i, k, false);
+    crate::output::check_output_location(&path)?;
+    let (part, stats) = render_part(&scene, spp, i, k, record, &|_| {});
+    write_partial(&path, &part)?;
+    Ok(PartReport {
+        part: (i, k),
+        samples: part_range(spp, i, k),
+        spp,
+        stats,
+        path,
+    })
+}
+
+/// Row tile I of K rendered adaptively to `STEM[.NNNN].tile-I-of-K.exr`: samples go to the
+/// tile's rows and `margin` rows on each side, with the budget counted over those rows; the
+/// file keeps the tile's own rows.
+fn render_tile(
+    job: &RenderJob,
+    scene: &Scene,
+    (i, k): (u32, u32),
+    margin: u32,
+    observer: &dyn Observer,
+) -> Result<TileReport, JobError> {
+    let (scene, adaptation, stem) = split_frame(job, scene, split_stem(job)?)?;
+    let h = scene.camera.height;
+    if k > h {
+        return Err(JobError::Invalid(format!(
+            "--tile {i}/{k}: {k} tiles of {h} rows would leave tiles empty"
+        )));
+    }
+    let (mut settings, _) = job.settings(&scene, adaptation)?;
+    let (y0, y1) = part_range(h, i, k);
+    let sampled = (y0.saturating_sub(margin), (y1 + margin).min(h));
+    settings.rows = Some(sampled);
+    let record = part_record(job)?;
+    let path = part_path(&stem, i, k, true);
+    crate::output::check_output_location(&path)?;
+    let r = adaptive(&scene, &settings, observer)?;
+    let te = r.threshold.as_deref().zip(r.error.as_deref());
+    let part = tile_of(&r.film, (y0, y1), te, i, k, record);
+    write_partial(&path, &part)?;
+    let n = part.film.len() as f64;
+    Ok(TileReport {
+        tile: (i, k),
+        rows: (y0, y1),
+        sampled_rows: sampled,
+        mean_spp: (
+            part.film.total_samples() as f64 / n,
+            r.film.total_samples() as f64 / n,
+        ),
+        stop: r.stop,
+        wall: r.wall,
+        path,
+    })
+}

@@ -1,0 +1,577 @@
+//! Render jobs: what to render, as one record.
+//!
+//! A [`RenderJob`] says everything that decides a render's pixels and files: the scene (a path
+//! plus overrides of its resolution, seed and path depth), the sampling rule ([`Criterion`])
+//! and its options, the budget (samples per pixel, time, or until converged), the display the
+//! image is judged and tone mapped for, the frames of a sequence, a split of one frame across
+//! machines (a sample part or a row tile), and the outputs. The CLI turns its arguments into a
+//! job; the farm's manifest and every partial film store the job as their record (TOML,
+//! versioned: [`RenderJob::from_toml`] refuses a record of another version or with unknown
+//! fields); [`run`] renders one. The Python bindings build the same jobs.
+//!
+//! A job never says how many threads to use: that changes no pixel (renders are deterministic
+//! per (seed, pixel, sample index)).
+
+mod driver;
+mod merge;
+
+pub use driver::{
+    FrameDone, JobReport, Observer, PartReport, SequenceReport, TileReport, run, run_on,
+};
+pub use merge::{MergeReport, merge};
+
+use crate::adaptive::{AdaptiveError, AdaptiveSettings, Criterion, ErrorEstimate, Visibility};
+use crate::deliver::Look;
+use crate::display::ToneMapSettings;
+use crate::error::SceneError;
+use crate::scene::{Scene, SceneDescription};
+use perception::adaptation::AdaptationMode;
+use perception::tmo::pattanaik00::AdaptationState;
+use perception::tmo::{Display, Operator};
+use perception::viewing::ViewingConditions;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// The record version this aleph writes and reads (the `version` key of a job's TOML).
+pub const JOB_VERSION: u32 = 1;
+
+/// One render: see the module docs. `Default` is the bundled defaults for a scene path that
+/// must still be set.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderJob {
+    /// Record version, [`JOB_VERSION`].
+    pub version: u32,
+    /// The adaptive decision rule (`perceptual`, `uniform`, `variance`).
+    pub criterion: Criterion,
+    /// The frames `[first, last]` of an animated scene (inclusive). `None`: a still, or the
+    /// whole animation of an animated scene.
+    pub frames: Option<[i64; 2]>,
+    /// The scene and its overrides.
+    pub scene: SceneSpec,
+    /// How much to render.
+    #[serde(default)]
+    pub budget: Budget,
+    /// Options of the adaptive loop.
+    #[serde(default)]
+    pub sampling: SamplingOptions,
+    /// The display: tone operator or exposure, display luminances, field of view.
+    #[serde(default)]
+    pub display: DisplaySpec,
+    /// Part of one frame, for a farm (`None`: the whole frame).
+    pub split: Option<Split>,
+    /// Where the files go.
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+/// The scene of a job.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    /// The scene file (TOML; docs/scene-format.md). The CLI makes it absolute.
+    pub path: PathBuf,
+    /// Image size `[width, height]` in pixels, instead of `camera.resolution`.
+    pub resolution: Option<[u32; 2]>,
+    /// Random seed, instead of `render.seed`.
+    pub seed: Option<u64>,
+    /// Maximum path depth, instead of `render.max_depth`.
+    pub max_depth: Option<u32>,
+    /// SHA-256 of the scene file's bytes, hex: set in records (partial films), so that parts
+    /// are matched by the scene's content, not by where it was on each machine.
+    pub content_hash: Option<String>,
+}
+
+/// How much to render. Neither set: the adaptive rules run until converged, the uniform rule
+/// takes the scene's `render.spp`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Budget {
+    /// Average samples per pixel (N × pixels in all, for every rule), at least 1.
+    pub spp: Option<f64>,
+    /// Seconds of rendering (passes, guide and decisions), positive.
+    pub time_s: Option<f64>,
+}
+
+/// Options of the adaptive loop ([`AdaptiveSettings`] has the meaning of each).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SamplingOptions {
+    /// Samples of the first, uniform pass (default 8).
+    pub min_spp: u32,
+    /// Cap on any one pixel's samples (default 4096).
+    pub max_spp: u32,
+    /// The smallest budget the adaptive rules steer, spp (default 128).
+    pub steer_from_spp: f64,
+    /// Fraction of pixels below threshold that counts as converged (default 0.995).
+    pub converged_fraction: f64,
+    /// Where visibility is judged (default: display).
+    pub visibility: Visibility,
+    /// Cycles' noise threshold of the variance rule (default 0.01).
+    pub noise_threshold: f32,
+    /// Samples per pixel of the albedo guide (default 4).
+    pub guide_spp: u32,
+    /// The perceptual rule's error estimate (default: half-buffers).
+    pub error_estimate: ErrorEstimate,
+    /// Saliency weight ω of the Aleph map (Yee et al. 2001; default 0, off).
+    pub saliency: f32,
+    /// Window of the local adaptation luminance, degrees (default 1).
+    pub adaptation_window_deg: f64,
+    /// Exposure latitude of the threshold, stops (default 2).
+    pub latitude_ev: f64,
+    /// Pixels per degree of the viewer (default: the display's, 67.0 ppd).
+    pub ppd: Option<f64>,
+    /// Whether a sequence's velocity map enters the threshold (default true).
+    pub use_velocity: bool,
+}
+
+impl Default for SamplingOptions {
+    fn default() -> Self {
+        let a = AdaptiveSettings::default();
+        SamplingOptions {
+            min_spp: a.min_spp,
+            max_spp: a.max_spp,
+            steer_from_spp: a.steer_from_spp,
+            converged_fraction: a.converged_fraction,
+            visibility: a.visibility,
+            noise_threshold: a.variance_threshold,
+            guide_spp: a.guide_spp,
+            error_estimate: a.error_estimate,
+            saliency: a.saliency_weight,
+            adaptation_window_deg: a.threshold.adaptation_window_deg,
+            latitude_ev: a.latitude_ev,
+            ppd: None,
+            use_velocity: a.use_velocity,
+        }
+    }
+}
+
+/// The display the image is tone mapped for and judged on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DisplaySpec {
+    /// Tone operator of the PNG and of display visibility. `None`: Reinhard et al. 2002 for a
+    /// still, Pattanaik et al. 2000 (with the viewer's adaptation course) for a sequence, or
+    /// the exposure operator when `exposure_ev` is set.
+    pub operator: Option<Operator>,
+    /// A plain exposure for the PNG, stops (radiance × 2^EV); excludes `operator`.
+    pub exposure_ev: Option<f32>,
+    /// Adaptation luminance of the operators (default: local, arithmetic over 1°).
+    pub adaptation: AdaptationMode,
+    /// Maximum display luminance, cd/m² (default: each operator's).
+    pub max_cd_m2: Option<f64>,
+    /// Display adaptation luminance, cd/m² (default: each operator's).
+    pub ambient_cd_m2: Option<f64>,
+    /// Horizontal field of view the image fills, degrees (default: 67 pixels per degree).
+    pub fov_deg: Option<f64>,
+}
+
+impl DisplaySpec {
+    /// Tone-map settings with `operator` for an image `width` pixels wide whose radiance is
+    /// `luminance_scale` cd/m² per unit.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming the field: a field of view outside (0°, 180°), or display
+    /// luminances out of range.
+    pub fn tone_settings(
+        &self,
+        operator: Operator,
+        width: usize,
+        luminance_scale: f32,
+    ) -> Result<ToneMapSettings, JobError> {
+        let view = match self.fov_deg {
+            Some(f) => ViewingConditions::from_fov(f, width as f64)
+                .map_err(|e| JobError::Invalid(format!("display.fov_deg (--fov): {e}")))?,
+            None => ViewingConditions::default(),
+        };
+        let display = Display {
+            max_cd_m2: self.max_cd_m2,
+            ambient_cd_m2: self.ambient_cd_m2,
+        };
+        display
+            .validate()
+            .map_err(|e| JobError::Invalid(format!("display: {e}")))?;
+        Ok(ToneMapSettings {
+            operator,
+            adaptation: self.adaptation,
+            view,
+            display,
+            luminance_scale,
+            adaptation_state: None,
+        })
+    }
+}
+
+/// Part of one frame rendered on its own (docs/farm.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Split {
+    /// Samples (I−1)·N/K .. I·N/K of every pixel of a uniform render (`--part I/K`): merged,
+    /// bit-identical to one machine's render.
+    Part {
+        /// I, from 1.
+        index: u32,
+        /// K.
+        count: u32,
+    },
+    /// Rows (I−1)·H/K .. I·H/K of an adaptive render, with `margin` rows on each side also
+    /// sampled (`--tile I/K`).
+    Tile {
+        /// I, from 1.
+        index: u32,
+        /// K.
+        count: u32,
+        /// Rows on each side that also take samples.
+        margin: u32,
+    },
+}
+
+/// Where a job's files go.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OutputSpec {
+    /// Output path without extension (STEM.exr, STEM.png; STEM.NNNN.* for frames). `None`:
+    /// no files (the results reach the [`Observer`] only).
+    pub stem: Option<PathBuf>,
+    /// Also the false-colour PNGs STEM.spp.png and STEM.ratio.png.
+    pub aov: bool,
+    /// A sequence also writes STEM.preview.png and STEM.filmstrip.png (a farm task's frame
+    /// does not: the finishing job writes them for the whole sequence).
+    pub sequence_outputs: bool,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        OutputSpec {
+            stem: None,
+            aov: false,
+            sequence_outputs: true,
+        }
+    }
+}
+
+/// Errors of a render job. Each message names the file, the frame or the job field (with its
+/// command-line flag) it is about.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum JobError {
+    /// The job asks for something that cannot be rendered.
+    #[error("{0}")]
+    Invalid(String),
+    /// A job record (a partial film's, a farm manifest's) cannot be used.
+    #[error("{path}: {message}")]
+    Record {
+        /// The file holding the record.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The scene could not be loaded.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// A sampler setting is out of range.
+    #[error(transparent)]
+    Adaptive(#[from] AdaptiveError),
+    /// The outputs could not be written.
+    #[error(transparent)]
+    Deliver(#[from] crate::deliver::DeliverError),
+    /// A file could not be written.
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+    /// A partial film could not be read, written or merged.
+    #[error(transparent)]
+    Partial(#[from] crate::partial::PartialError),
+}
+
+impl RenderJob {
+    /// A job for the scene at `path` with every default: the perceptual rule until converged,
+    /// the default display, no files.
+    pub fn new(path: impl Into<PathBuf>) -> RenderJob {
+        RenderJob {
+            version: JOB_VERSION,
+            criterion: Criterion::Perceptual,
+            frames: None,
+            scene: SceneSpec {
+                path: path.into(),
+                ..SceneSpec::default()
+            },
+            budget: Budget::default(),
+            sampling: SamplingOptions::default(),
+            display: DisplaySpec::default(),
+            split: None,
+            output: OutputSpec::default(),
+        }
+    }
+
+    /// The job as a TOML record.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("a render job serializes to TOML")
+    }
+
+    /// Reads a TOML record written by [`RenderJob::to_toml`]; `origin` names the file it came
+    /// from in errors.
+    ///
+    /// # Errors
+    /// [`JobError::Record`]: not TOML, not a render job (unknown or missing keys), or written
+    /// by an aleph whose record version differs.
+    pub fn from_toml(text: &str, origin: &Path) -> Result<RenderJob, JobError> {
+        let record = |message: String| JobError::Record {
+            path: origin.to_path_buf(),
+            message,
+        };
+        #[derive(Deserialize)]
+        struct Version {
+            version: Option<u32>,
+        }
+        let v: Version = toml::from_str(text)
+            .map_err(|e| record(format!("the render record is not aleph's: {e}")))?;
+        match v.version {
+            Some(JOB_VERSION) => {}
+            Some(other) => {
+                return Err(record(format!(
+                    "the render record has version {other}; this aleph reads version \
+                     {JOB_VERSION} (render it again with this aleph)"
+                )));
+            }
+            None => {
+                return Err(record(
+                    "the render record has no version: it was written by an older aleph or \
+                     another program (render it again with this aleph)"
+                        .into(),
+                ));
+            }
+        }
+        toml::from_str(text).map_err(|e| record(format!("the render record is not aleph's: {e}")))
+    }
+
+    /// Checks what can be checked without the scene.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming the first bad field and its flag.
+    pub fn validate(&self) -> Result<(), JobError> {
+        let bad = |m: String| Err(JobError::Invalid(m));
+        if let Some(n) = self.budget.spp
+            && !(n.is_finite() && n >= 1.0)
+        {
+            return bad(format!("budget.spp (--spp) must be at least 1, got {n}"));
+        }
+        if let Some(t) = self.budget.time_s
+            && !(t.is_finite() && t > 0.0 && t <= 1e9)
+        {
+            return bad(format!(
+                "budget.time_s (--time) must be a positive number of seconds up to 1e9, got {t}"
+            ));
+        }
+        if let Some(ev) = self.display.exposure_ev {
+            if !ev.is_finite() {
+                return bad(
+                    "display.exposure_ev (--exposure) must be a finite number of stops".into(),
+                );
+            }
+            if self.display.operator.is_some() {
+                return bad("display.exposure_ev (--exposure) and display.operator (--tonemap) exclude each other".into());
+            }
+        }
+        if let Some([a, b]) = self.frames
+            && a > b
+        {
+            return bad(format!(
+                "frames: the first frame ({a}) is after the last ({b})"
+            ));
+        }
+        if let Some(split) = self.split {
+            self.validate_split(split)?;
+        }
+        Ok(())
+    }
+
+    fn validate_split(&self, split: Split) -> Result<(), JobError> {
+        let bad = |m: String| Err(JobError::Invalid(m));
+        let (i, k) = match split {
+            Split::Part { index, count } | Split::Tile { index, count, .. } => (index, count),
+        };
+        if i == 0 || i > k {
+            return bad(format!("split: part {i} of {k} (expected 1 ≤ I ≤ K)"));
+        }
+        if matches!(self.frames, Some([a, b]) if a != b) {
+            return bad("--part/--tile render one frame: give --frame N, not --frames".into());
+        }
+        match (split, self.criterion) {
+            (Split::Part { .. }, Criterion::Perceptual | Criterion::Variance) => bad(
+                "--part splits the samples of a uniform render (--sampler uniform); the \
+                 perceptual and variance samplers split one frame by rows (--tile I/K) or a \
+                 sequence by frames (docs/farm.md)"
+                    .into(),
+            ),
+            (Split::Tile { .. }, Criterion::Uniform) => bad(
+                "--tile splits an adaptive render by rows; a uniform render splits by samples: \
+                 --part I/K"
+                    .into(),
+            ),
+            _ => Ok(()),
+        }
+    }
+
+    /// The scene description with the job's overrides.
+    ///
+    /// # Errors
+    /// As [`SceneDescription::read`].
+    pub fn scene_description(&self) -> Result<SceneDescription, SceneError> {
+        let mut desc = SceneDescription::read(&self.scene.path)?;
+        if let Some([w, h]) = self.scene.resolution {
+            desc.camera.resolution = [w, h];
+        }
+        if let Some(s) = self.scene.seed {
+            desc.render.seed = Some(s);
+        }
+        if let Some(d) = self.scene.max_depth {
+            desc.render.max_depth = Some(d);
+        }
+        Ok(desc)
+    }
+
+    /// Loads the scene with the job's overrides.
+    ///
+    /// # Errors
+    /// As [`Scene::load`].
+    pub fn load_scene(&self) -> Result<Scene, SceneError> {
+        Scene::load_description(self.scene_description()?)
+    }
+
+    /// The operator of the PNG and of display visibility: the job's, else the exposure
+    /// operator for `exposure_ev`, else Reinhard for a still and PTYG in a sequence.
+    pub fn operator(&self, in_sequence: bool) -> Operator {
+        match (self.display.operator, self.display.exposure_ev, in_sequence) {
+            (Some(op), _, _) => op,
+            (None, Some(_), _) => Operator::Exposure,
+            (None, None, false) => Operator::Reinhard,
+            (None, None, true) => Operator::Ptyg,
+        }
+    }
+
+    /// The adaptive loop's settings and the PNG's look for `scene` (at its frame); `adaptation`
+    /// is the viewer's state in a sequence ([`crate::sequence::FrameContext`]), `None` for a
+    /// still.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] or [`JobError::Adaptive`] naming the setting out of range.
+    pub fn settings(
+        &self,
+        scene: &Scene,
+        adaptation: Option<AdaptationState>,
+    ) -> Result<(AdaptiveSettings, Look), JobError> {
+        let op = self.operator(adaptation.is_some());
+        let mut tone = self.display.tone_settings(
+            op,
+            scene.camera.width as usize,
+            scene.settings.luminance_scale,
+        )?;
+        tone.adaptation_state = adaptation;
+        let settings = self.adaptive_settings(scene.settings.spp, tone)?;
+        let look = match (self.display.operator, self.display.exposure_ev) {
+            (None, Some(ev)) => Look::Exposure(Some(ev)),
+            _ => Look::Tone(settings.tone),
+        };
+        Ok((settings, look))
+    }
+
+    /// The adaptive loop's settings with display `tone`; `uniform_spp` is the scene's
+    /// `render.spp`.
+    ///
+    /// # Errors
+    /// As [`RenderJob::settings`].
+    pub fn adaptive_settings(
+        &self,
+        uniform_spp: u32,
+        tone: ToneMapSettings,
+    ) -> Result<AdaptiveSettings, JobError> {
+        self.validate()?;
+        let s = &self.sampling;
+        let mut tone = tone;
+        if let Some(ppd) = s.ppd {
+            tone.view = tone
+                .view
+                .with_ppd(ppd)
+                .map_err(|e| JobError::Invalid(format!("sampling.ppd (--ppd): {e}")))?;
+        }
+        let defaults = AdaptiveSettings::default();
+        let settings = AdaptiveSettings {
+            criterion: self.criterion,
+            threshold: perception::threshold::ThresholdParams {
+                adaptation_window_deg: s.adaptation_window_deg,
+                ..defaults.threshold
+            },
+            saliency_weight: s.saliency,
+            use_velocity: s.use_velocity,
+            error_estimate: s.error_estimate,
+            min_spp: s.min_spp,
+            max_spp: s.max_spp,
+            steer_from_spp: s.steer_from_spp,
+            budget_spp: self.budget.spp,
+            uniform_spp,
+            time_budget: self.budget.time_s.map(Duration::from_secs_f64),
+            converged_fraction: s.converged_fraction,
+            visibility: s.visibility,
+            tone,
+            variance_threshold: s.noise_threshold,
+            guide_spp: s.guide_spp,
+            latitude_ev: s.latitude_ev,
+            rows: None,
+        };
+        settings.validate()?;
+        Ok(settings)
+    }
+
+    /// The output stem: the job's, or the scene's name (its folder's name for `scene.toml`)
+    /// in the working directory.
+    pub fn stem(&self) -> PathBuf {
+        match &self.output.stem {
+            Some(s) => s.clone(),
+            None => PathBuf::from(scene_name(&self.scene.path)),
+        }
+    }
+
+    /// What decides the pixels of a frame: the job without its split, outputs and scene path,
+    /// with the scene's content hash. Two parts of one render have equal image keys.
+    pub fn image_key(&self) -> RenderJob {
+        RenderJob {
+            split: None,
+            output: OutputSpec::default(),
+            scene: SceneSpec {
+                path: PathBuf::new(),
+                ..self.scene.clone()
+            },
+            ..self.clone()
+        }
+    }
+}
+
+/// A scene's name for default outputs: the file's stem, or its folder's name for `scene.toml`.
+pub fn scene_name(path: &Path) -> String {
+    match path
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .as_deref()
+    {
+        Some("scene") | None => path
+            .parent()
+            .and_then(|p| p.file_name())
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_else(|| "render".into()),
+        Some(s) => s.to_string(),
+    }
+}
+
+/// SHA-256 of the file at `path`, hex.
+///
+/// # Errors
+/// [`SceneError::Io`] naming the file.
+pub fn content_hash(path: &Path) -> Result<String, SceneError> {
+    use sha2::Digest;
+    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(format!("{:x}", sha2::Sha256::digest(&bytes)))
+}
