@@ -1,3 +1,4 @@
+#![deny(missing_docs)]
 //! # aleph
 //!
 //! A physically based path tracer that renders only what a person can see.

@@ -1,6 +1,6 @@
 //! The `[[light]]` entries that are not geometry: environment, sun, point and spot lights.
 
-use super::loader::{LightDesc, MAX_COORDINATE, MAX_LUMINANCE_CD_M2, SceneDescription};
+use super::schema::{LightDesc, MAX_COORDINATE, MAX_LUMINANCE_CD_M2, SceneDescription};
 use crate::error::SceneResult;
 use crate::light::{Environment, OtherLights, PointLight, SUN_ANGULAR_DIAMETER_DEG, Sun};
 use glam::Vec3;

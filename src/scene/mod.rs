@@ -32,10 +32,13 @@
 //! radiance = [17.0, 12.0, 4.0]     # W·sr⁻¹·m⁻²
 //! ```
 
+mod build;
 mod lights;
-mod loader;
+mod obj;
+mod schema;
 
-pub use loader::{SceneDescription, parse_texture_spec};
+pub use obj::{TextureSpec, parse_texture_spec};
+pub use schema::*;
 
 use crate::animation::{AnimationSettings, CameraTrack, FrameTime};
 use crate::camera::Camera;
