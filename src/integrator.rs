@@ -262,6 +262,30 @@ impl Integrator {
         (beta * f * wi.z.abs() * ls.le * (w / ls.pdf), 1)
     }
 
+    /// MIS weight of emission that BSDF sampling hit (the previous vertex at `prev`, sampled
+    /// with solid-angle pdf `bsdf_pdf`): the power heuristic against light sampling, or the
+    /// single strategy's 0 or 1.
+    #[inline]
+    fn emission_weight(
+        &self,
+        scene: &Scene,
+        hit: &crate::geometry::Hit,
+        time: f32,
+        bsdf_pdf: f32,
+        prev: (Vec3, Vec3),
+    ) -> f32 {
+        match self.strategy {
+            Strategy::Mis => {
+                let light_pdf = scene
+                    .lights
+                    .pdf(&scene.geometry, hit.tri, time, prev, hit.p);
+                power_heuristic(bsdf_pdf, light_pdf)
+            }
+            Strategy::LightOnly => 0.0,
+            Strategy::BsdfOnly => 1.0,
+        }
+    }
+
     /// Estimates the radiance arriving along `ray`.
     /// `rng` gives the path's canonical random numbers in order: per vertex the light choice
     /// (1-D; passed over unless [`crate::light::Lights::chooses_with_own_sample`], the point's
@@ -295,17 +319,7 @@ impl Integrator {
                 let w = if prev_delta {
                     1.0
                 } else {
-                    match self.strategy {
-                        Strategy::Mis => {
-                            let light_pdf =
-                                scene
-                                    .lights
-                                    .pdf(geo, hit.tri, ray.time, (prev_p, prev_n), hit.p);
-                            power_heuristic(prev_pdf, light_pdf)
-                        }
-                        Strategy::LightOnly => 0.0,
-                        Strategy::BsdfOnly => 1.0,
-                    }
+                    self.emission_weight(scene, &hit, ray.time, prev_pdf, (prev_p, prev_n))
                 };
                 l += beta * le * w;
             }
@@ -314,18 +328,11 @@ impl Integrator {
             }
 
             let bsdf = material.bsdf(hit.uv, &scene.textures);
-            let ns = shading_normal(scene, &hit, ray.time, material);
             // Shading frame: opaque surfaces are two-sided, so face the frame towards wo.
-            let ns = if !bsdf.is_transmissive() && wo_world.dot(hit.ng) < 0.0 {
-                -ns
-            } else {
-                ns
-            };
-            let ng_side = if !bsdf.is_transmissive() && wo_world.dot(hit.ng) < 0.0 {
-                -hit.ng
-            } else {
-                hit.ng
-            };
+            let flip = !bsdf.is_transmissive() && wo_world.dot(hit.ng) < 0.0;
+            let sign = if flip { -1.0 } else { 1.0 };
+            let ns = sign * shading_normal(scene, &hit, ray.time, material);
+            let ng_side = sign * hit.ng;
             let frame = Frame::from_normal(ns);
             let wo = frame.to_local(wo_world);
 

@@ -94,9 +94,16 @@ const STILLS: [&str; 7] = [
     "scenes/mori-knob/scene.toml",
 ];
 
-/// Each case: a name and the commands it runs (each in the case's own directory).
-fn cases() -> Vec<(String, Vec<Vec<String>>)> {
-    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+/// A case: a name and the commands it runs (each in the case's own directory).
+type Case = (String, Vec<Vec<String>>);
+
+/// Words as owned strings.
+fn s(v: &[&str]) -> Vec<String> {
+    v.iter().map(|x| x.to_string()).collect()
+}
+
+/// Every bundled still with each sampling rule.
+fn still_cases() -> Vec<Case> {
     let mut out = Vec::new();
     for scene in STILLS {
         let path = repo(scene).display().to_string();
@@ -137,10 +144,16 @@ fn cases() -> Vec<(String, Vec<Vec<String>>)> {
             out.push((format!("{scene} {rule}"), vec![c]));
         }
     }
+    out
+}
+
+/// The two animated scenes as short sequences.
+fn sequence_cases() -> Vec<Case> {
     let motion = repo("scenes/cornell-motion/scene.toml")
         .display()
         .to_string();
     let pan = repo("scenes/holodeck/pan.toml").display().to_string();
+    let mut out = Vec::new();
     for (name, scene, frames) in [
         ("cornell-motion", &motion, "2-4"),
         ("holodeck pan", &pan, "0-2"),
@@ -158,8 +171,16 @@ fn cases() -> Vec<(String, Vec<Vec<String>>)> {
         ]));
         out.push((format!("{name} sequence"), vec![c]));
     }
+    out
+}
+
+/// Sample parts (of a still and of a frame) and row tiles, each merged.
+fn split_cases() -> Vec<Case> {
+    let motion = repo("scenes/cornell-motion/scene.toml")
+        .display()
+        .to_string();
     let box_ = repo("scenes/cornell-box/scene.toml").display().to_string();
-    let part = |i: &str, extra: &[&str]| {
+    let part = |i: &str| {
         let mut c = s(&[
             "render",
             &box_,
@@ -171,26 +192,9 @@ fn cases() -> Vec<(String, Vec<Vec<String>>)> {
             "8",
         ]);
         c.extend(s(&STILL));
-        c.extend(s(extra));
         c.extend(s(&["--part", i]));
         c
     };
-    out.push((
-        "cornell-box parts merged".into(),
-        vec![
-            part("1/3", &[]),
-            part("2/3", &[]),
-            part("3/3", &[]),
-            s(&[
-                "merge",
-                "p.part-3-of-3.exr",
-                "p.part-1-of-3.exr",
-                "p.part-2-of-3.exr",
-                "-o",
-                "m",
-            ]),
-        ],
-    ));
     let mpart = |i: &str| {
         let mut c = s(&[
             "render",
@@ -205,20 +209,6 @@ fn cases() -> Vec<(String, Vec<Vec<String>>)> {
         c.extend(s(&["--resolution", "32x24", "--frame", "3", "--part", i]));
         c
     };
-    out.push((
-        "cornell-motion frame parts merged".into(),
-        vec![
-            mpart("1/2"),
-            mpart("2/2"),
-            s(&[
-                "merge",
-                "p.0003.part-1-of-2.exr",
-                "p.0003.part-2-of-2.exr",
-                "-o",
-                "m",
-            ]),
-        ],
-    ));
     let tile = |i: &str| {
         let mut c = s(&[
             "render",
@@ -234,15 +224,54 @@ fn cases() -> Vec<(String, Vec<Vec<String>>)> {
         c.extend(s(&["--min-spp", "4", "--tile-margin", "4", "--tile", i]));
         c
     };
-    out.push((
-        "cornell-box tiles merged".into(),
-        vec![
-            tile("1/2"),
-            tile("2/2"),
-            s(&["merge", "t.tile-1-of-2.exr", "t.tile-2-of-2.exr", "-o", "m"]),
-        ],
-    ));
-    out
+    vec![
+        (
+            "cornell-box parts merged".into(),
+            vec![
+                part("1/3"),
+                part("2/3"),
+                part("3/3"),
+                s(&[
+                    "merge",
+                    "p.part-3-of-3.exr",
+                    "p.part-1-of-3.exr",
+                    "p.part-2-of-3.exr",
+                    "-o",
+                    "m",
+                ]),
+            ],
+        ),
+        (
+            "cornell-motion frame parts merged".into(),
+            vec![
+                mpart("1/2"),
+                mpart("2/2"),
+                s(&[
+                    "merge",
+                    "p.0003.part-1-of-2.exr",
+                    "p.0003.part-2-of-2.exr",
+                    "-o",
+                    "m",
+                ]),
+            ],
+        ),
+        (
+            "cornell-box tiles merged".into(),
+            vec![
+                tile("1/2"),
+                tile("2/2"),
+                s(&["merge", "t.tile-1-of-2.exr", "t.tile-2-of-2.exr", "-o", "m"]),
+            ],
+        ),
+    ]
+}
+
+/// Every case.
+fn cases() -> Vec<Case> {
+    let mut all = still_cases();
+    all.extend(sequence_cases());
+    all.extend(split_cases());
+    all
 }
 
 /// Hashes recorded by the version before the refactor (see the module docs).

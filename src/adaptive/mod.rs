@@ -569,16 +569,7 @@ pub fn render_adaptive(
     }
     // The threshold mapper's setup (filters, FFT plans) is a decision cost too.
     let t_setup = Instant::now();
-    let mut criterion = match s.criterion {
-        Criterion::Perceptual => {
-            let motion = velocity
-                .as_ref()
-                .filter(|_| s.use_velocity)
-                .map(|v| v.motion_px_per_frame());
-            Judge::Perceptual(Box::new(PerceptualCriterion::new(scene, s, motion)?))
-        }
-        _ => Judge::Variance(VarianceCriterion::new(&st.film, s.variance_threshold)),
-    };
+    let mut criterion = judge_for(scene, s, velocity.as_ref(), &st.film)?;
     st.decision_time += t_setup.elapsed();
     let mut rate = st.stats.samples as f64 / st.stats.wall.as_secs_f64().max(1e-9);
     let cap = s.pixel_cap();
@@ -621,25 +612,11 @@ pub fn render_adaptive(
             fit_to_budget(&mut alloc, &st.film, &ratio, rem, cap);
         }
         if let Some(limit) = s.time_budget {
-            // Size the pass to land on the time budget: the samples the measured rate allows
-            // in the time left after the judgement that follows the pass. That judgement
-            // costs a refresh of the threshold map if the pass takes the film past the refresh
-            // point, else an update of the error.
-            let taken = st.region_samples() as f64;
-            let affordable = |judge: Duration| {
-                let left = limit.saturating_sub(start.elapsed() + judge);
-                (left.as_secs_f64() * rate) as u64
-            };
-            let mut samples = affordable(cost.update);
-            if criterion
-                .next_refresh_spp()
-                .is_some_and(|at| (taken + samples as f64) / n_px as f64 >= at)
-            {
-                samples = affordable(cost.refresh);
-            }
-            if (samples as f64) < 0.002 * n_px as f64 {
+            let refresh_at = criterion.next_refresh_spp();
+            let Some(samples) = affordable_samples(&st, limit, start, rate, &cost, refresh_at)
+            else {
                 break (judgement, StopReason::Time);
-            }
+            };
             fit_to_budget(&mut alloc, &st.film, &ratio, samples, cap);
         }
         let pass = render_counts(
@@ -673,6 +650,51 @@ pub fn render_adaptive(
         wall: start.elapsed(),
         velocity,
     })
+}
+
+/// The per-pixel judge of `s.criterion` (the perceptual one sees the frame's motion unless
+/// velocity is off).
+fn judge_for(
+    scene: &Scene,
+    s: &AdaptiveSettings,
+    velocity: Option<&crate::velocity::VelocityMap>,
+    film: &Film,
+) -> Result<Judge, AdaptiveError> {
+    Ok(match s.criterion {
+        Criterion::Perceptual => {
+            let motion = velocity
+                .filter(|_| s.use_velocity)
+                .map(|v| v.motion_px_per_frame());
+            Judge::Perceptual(Box::new(PerceptualCriterion::new(scene, s, motion)?))
+        }
+        _ => Judge::Variance(VarianceCriterion::new(film, s.variance_threshold)),
+    })
+}
+
+/// The samples the next pass may take to land on the time budget `limit`: what the measured
+/// `rate` (samples/s) allows in the time left after the judgement that follows the pass. That
+/// judgement costs a refresh of the threshold map if the pass takes the film past the refresh
+/// point `refresh_at` (spp), else an update of the error. `None`: too few to be worth a pass
+/// (under 0.002 spp), the time is spent.
+fn affordable_samples(
+    st: &LoopState,
+    limit: Duration,
+    start: Instant,
+    rate: f64,
+    cost: &JudgeCost,
+    refresh_at: Option<f64>,
+) -> Option<u64> {
+    let n_px = st.region.len() as f64;
+    let taken = st.region_samples() as f64;
+    let affordable = |judge: Duration| {
+        let left = limit.saturating_sub(start.elapsed() + judge);
+        (left.as_secs_f64() * rate) as u64
+    };
+    let mut samples = affordable(cost.update);
+    if refresh_at.is_some_and(|at| (taken + samples as f64) / n_px >= at) {
+        samples = affordable(cost.refresh);
+    }
+    ((samples as f64) >= 0.002 * n_px).then_some(samples)
 }
 
 /// The next pass's allocation from the current ratios (and relative noise): the doublings

@@ -536,45 +536,9 @@ pub fn sweep(
         };
         sweep_frame(&ctx, &reference, spec, base, &mut st, log)?;
     }
-    let rows: Vec<Row> = spec
-        .budgets
-        .iter()
-        .enumerate()
-        .flat_map(|(bi, &b)| {
-            let acc = &st.acc;
-            arms.iter()
-                .enumerate()
-                .map(move |(ai, &arm)| acc[bi * arms.len() + ai].row(arm, b))
-        })
-        .collect();
-    // The ceiling (of the first frame), fitted between the second-lowest and the highest uniform
-    // budgets (the lowest is the noisiest fit), at each budget of the sweep.
-    let maps = &st.uniform_maps;
-    let ceilings: Vec<(f64, Ceiling)> = if maps.len() >= 3 {
-        let (lo, hi) = (&maps[1], &maps[maps.len() - 1]);
-        spec.budgets
-            .iter()
-            .filter_map(|&b| {
-                ceiling(lo.0, &lo.1, hi.0, &hi.1, b, st.cost.as_deref()).map(|c| (b, c))
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let oracle = if maps.len() >= 3 {
-        let (lo, hi) = (&maps[1], &maps[maps.len() - 1]);
-        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-        oracle_sheets(
-            lo,
-            hi,
-            &st.perceptual_counts,
-            st.cost.as_deref(),
-            (w, h),
-            dir,
-        )?
-    } else {
-        Vec::new()
-    };
+    let rows = budget_rows(&st, spec, arms);
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let (ceilings, oracle) = ceilings_and_oracle(&st, spec, (w, h), dir)?;
     Ok(Sweep {
         rows,
         floor: st.floor.row(Arm::Uniform, 0.0).scores,
@@ -588,6 +552,47 @@ pub fn sweep(
         width: scene.camera.width as usize,
         height: scene.camera.height as usize,
     })
+}
+
+/// One row per budget and arm, in that order, from the accumulated scores.
+fn budget_rows(st: &SweepState, spec: &SweepSpec, arms: &[Arm]) -> Vec<Row> {
+    spec.budgets
+        .iter()
+        .enumerate()
+        .flat_map(|(bi, &b)| {
+            let acc = &st.acc;
+            arms.iter()
+                .enumerate()
+                .map(move |(ai, &arm)| acc[bi * arms.len() + ai].row(arm, b))
+        })
+        .collect()
+}
+
+/// The ceilings at each budget and the oracle's rows.
+type CeilingsAndOracle = (Vec<(f64, Ceiling)>, Vec<OracleRow>);
+
+/// Ceilings and oracle sheets of frame size `(w, h)`, for a sweep of three uniform budgets or
+/// more (else none): the ceiling (of the first frame), fitted between the second-lowest and the
+/// highest uniform budgets (the lowest is the noisiest fit), at each budget of the sweep.
+fn ceilings_and_oracle(
+    st: &SweepState,
+    spec: &SweepSpec,
+    (w, h): (usize, usize),
+    dir: &Path,
+) -> Result<CeilingsAndOracle, SpeedupError> {
+    let maps = &st.uniform_maps;
+    if maps.len() < 3 {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    let (lo, hi) = (&maps[1], &maps[maps.len() - 1]);
+    let cost = st.cost.as_deref();
+    let ceilings = spec
+        .budgets
+        .iter()
+        .filter_map(|&b| ceiling(lo.0, &lo.1, hi.0, &hi.1, b, cost).map(|c| (b, c)))
+        .collect();
+    let oracle = oracle_sheets(lo, hi, &st.perceptual_counts, cost, (w, h), dir)?;
+    Ok((ceilings, oracle))
 }
 
 /// For each budget of the perceptual sampler: the oracle's allocations (FLIP mean, FLIP p99)
