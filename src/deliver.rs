@@ -14,8 +14,8 @@
 use crate::adaptive::{AdaptiveResult, AdaptiveSettings};
 use crate::display::{ToneMapSettings, tone_map};
 use crate::output::{
-    AtomicOutputs, ChannelData, OutputError, auto_exposure_ev, encode_srgb8, expose, false_colour,
-    write_exr, write_png,
+    AtomicOutputs, ChannelData, OutputError, auto_exposure_ev, encode_srgb8, expose, write_exr,
+    write_png,
 };
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -87,7 +87,7 @@ pub fn write_sequence_outputs(
     let (pw, ph) = ((w / factor).max(1), (h / factor).max(1));
     let frames: Vec<Vec<u8>> = displays
         .iter()
-        .map(|(_, d)| crate::display::shrink_rgb8(d, w, h, factor))
+        .map(|(_, d)| crate::imaging::shrink_rgb8(d, w, h, factor))
         .collect();
     let preview = with_ext(stem, "preview.png");
     let strip_path = with_ext(stem, "filmstrip.png");
@@ -187,12 +187,12 @@ pub fn write_render(
             spp.iter().cloned().fold(f32::INFINITY, f32::min).max(1.0),
             spp.iter().cloned().fold(0.0, f32::max).max(2.0),
         );
-        let density = false_colour(&spp, lo, hi.max(lo * 2.0));
+        let density = crate::imaging::false_colour(&spp, lo, hi.max(lo * 2.0));
         let spp_path = with_ext(stem, "spp.png");
         out.stage(&spp_path, |wr| write_png(wr, &spp_path, w, h, &density))?;
         if let (Some(t), Some(e)) = (&result.threshold, &result.error) {
             let ratio: Vec<f32> = e.iter().zip(t).map(|(e, t)| e / t.max(1e-30)).collect();
-            let img = false_colour(&ratio, 1.0 / 16.0, 16.0);
+            let img = crate::imaging::false_colour(&ratio, 1.0 / 16.0, 16.0);
             let ratio_path = with_ext(stem, "ratio.png");
             out.stage(&ratio_path, |wr| write_png(wr, &ratio_path, w, h, &img))?;
         }

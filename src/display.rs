@@ -250,48 +250,6 @@ pub fn register_font() {
     });
 }
 
-/// Box-filter downscale of interleaved RGB by an integer factor `f`: each output pixel is the
-/// mean of an `f × f` block (summed in f64), the last `w mod f` columns and `h mod f` rows
-/// dropped. Returns the image and its size.
-fn box_shrink<T: Copy + Default>(
-    rgb: &[T],
-    (w, h): (usize, usize),
-    f: usize,
-    to: impl Fn(T) -> f64,
-    from: impl Fn(f64) -> T,
-) -> (Vec<T>, usize, usize) {
-    if f <= 1 {
-        return (rgb.to_vec(), w, h);
-    }
-    let (nw, nh) = (w / f, h / f);
-    let mut out = vec![T::default(); 3 * nw * nh];
-    for y in 0..nh {
-        for x in 0..nw {
-            for c in 0..3 {
-                let mut s = 0.0;
-                for dy in 0..f {
-                    for dx in 0..f {
-                        s += to(rgb[3 * ((y * f + dy) * w + x * f + dx) + c]);
-                    }
-                }
-                out[3 * (y * nw + x) + c] = from(s / (f * f) as f64);
-            }
-        }
-    }
-    (out, nw, nh)
-}
-
-/// Box-filter downscale of linear interleaved RGB by an integer factor ([`box_shrink`]).
-fn downscale(rgb: &[f32], w: usize, h: usize, f: usize) -> (Vec<f32>, usize, usize) {
-    box_shrink(rgb, (w, h), f, |v| v as f64, |v| v as f32)
-}
-
-/// Box-filter downscale of 8-bit interleaved RGB (`w × h`) by an integer factor `f`, each
-/// value the block mean rounded down; the image is `w / f × h / f`.
-pub fn shrink_rgb8(rgb8: &[u8], w: usize, h: usize, f: usize) -> Vec<u8> {
-    box_shrink(rgb8, (w, h), f, |v| v as f64, |v| v as u8).0
-}
-
 /// A labelled grid of every operator's result (3 columns), each tile at most 480 pixels wide.
 /// Returns 8-bit sRGB, width and height.
 ///
@@ -304,7 +262,7 @@ pub fn contact_sheet(
     s: &ToneMapSettings,
 ) -> perception::Result<(Vec<u8>, u32, u32)> {
     let factor = width.div_ceil(480).max(1);
-    let (small, tw, th) = downscale(rgb, width, height, factor);
+    let (small, tw, th) = crate::imaging::downscale(rgb, width, height, factor);
     let (tw, th) = (tw.max(1), th.max(1));
     let tiles: Vec<(String, Vec<u8>)> = Operator::ALL
         .iter()
@@ -326,7 +284,7 @@ pub fn filmstrip(frames: &[(i64, Vec<u8>)], width: usize, height: usize) -> (Vec
         .iter()
         .map(|(index, img)| {
             let lin: Vec<f32> = img.iter().map(|&v| v as f32).collect();
-            let (small, _, _) = downscale(&lin, width, height, factor);
+            let (small, _, _) = crate::imaging::downscale(&lin, width, height, factor);
             let tile = small.iter().map(|&v| v.round() as u8).collect();
             (format!("frame {index}"), tile)
         })

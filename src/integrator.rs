@@ -16,9 +16,9 @@
 use crate::geometry::{Hit, Ray, offset_origin};
 use crate::light::LightSample;
 use crate::math::Frame;
+use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
 use crate::scene::Scene;
-use crate::sobol::SampleSource;
 use glam::{Vec2, Vec3};
 
 /// Bounce at which Russian roulette starts.
@@ -76,7 +76,7 @@ fn capped(le: Vec3) -> Vec3 {
 /// reports its radiance scaled so its luminance is at most [`ALBEDO_EMITTER_CAP`]; a miss
 /// reports the environment and suns seen there, capped the same way. Uses `rng` only for the
 /// choice at dielectrics (reflect or refract by Fresnel).
-pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut impl SampleSource) -> Vec3 {
+pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> Vec3 {
     use crate::bsdf::Bsdf;
     let mut weight = Vec3::ONE;
     for _ in 0..8 {
@@ -291,7 +291,7 @@ impl Integrator {
     /// (1-D; passed over unless [`crate::light::Lights::chooses_with_own_sample`], the point's
     /// first coordinate choosing otherwise), the point on the light (2-D), the lobe choice
     /// (1-D), the direction (2-D), then Russian roulette (1-D).
-    pub fn radiance(&self, scene: &Scene, mut ray: Ray, rng: &mut impl SampleSource) -> PathResult {
+    pub fn radiance(&self, scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> PathResult {
         let geo = &scene.geometry;
         let mut l = Vec3::ZERO;
         let mut beta = Vec3::ONE;

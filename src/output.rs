@@ -463,25 +463,6 @@ pub fn auto_exposure_ev(rgb: &[f32]) -> f32 {
     (0.18 / log_avg).log2() as f32
 }
 
-/// False-colour 8-bit RGB of positive values on a log scale from `lo` (dark) to `hi` (bright),
-/// with FLIP's magma colour map (Andersson et al. 2020, as shipped by the nv-flip crate).
-pub fn false_colour(values: &[f32], lo: f32, hi: f32) -> Vec<u8> {
-    let lut = nv_flip::magma_lut().to_vec();
-    let (l0, l1) = (lo.max(1e-30).ln(), hi.max(lo * 1.0001).ln());
-    values
-        .iter()
-        .flat_map(|&v| {
-            let t = if v > 0.0 {
-                ((v.ln() - l0) / (l1 - l0)).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let i = (t * 255.0).round() as usize;
-            [lut[3 * i], lut[3 * i + 1], lut[3 * i + 2]]
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod exr_bytes_tests {
     use super::*;

@@ -3,9 +3,9 @@
 use crate::film::{Film, PixelStats};
 use crate::integrator::{Integrator, Strategy};
 use crate::rng::Rng;
+use crate::sampler::{Sampler, SobolSampler};
 use crate::scene::SampleGenerator;
 use crate::scene::Scene;
-use crate::sobol::{SampleSource, SobolSampler};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -82,7 +82,7 @@ fn trace(
     pixel: (u32, u32),
     n: u64,
     time: f32,
-    mut rng: impl SampleSource,
+    mut rng: impl Sampler,
 ) -> crate::integrator::PathResult {
     let ray = scene.camera_ray(seed, pixel, n, rng.uniform2(), time);
     integrator.radiance(scene, ray, &mut rng)

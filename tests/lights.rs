@@ -651,7 +651,7 @@ fn light_choice_keeps_the_two_dimensional_sample_stratified() {
     for seed in 0..4u64 {
         let mut on0 = 0usize;
         for i in 0..256u32 {
-            let u = aleph::sobol::shuffled_scrambled_sobol2d(i, seed);
+            let u = aleph::sampler::sobol::shuffled_scrambled_sobol2d(i, seed);
             let ls = lights
                 .sample(
                     p_ref,

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 /// 3×3 dilation of a mask (row-major `w × h`).
 pub(crate) fn dilate3(m: &[bool], w: usize, h: usize) -> Vec<bool> {
     let v: Vec<f32> = m.par_iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
-    crate::math::max_filter3(&v, w, h)
+    crate::imaging::max_filter3(&v, w, h)
         .into_par_iter()
         .map(|x| x > 0.0)
         .collect()

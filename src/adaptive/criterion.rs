@@ -93,7 +93,7 @@ pub(crate) struct PerceptualCriterion {
 
 /// Interleaved RGB box-filtered over (2r + 1)² pixels, channel by channel.
 fn pool_rgb(rgb: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
-    crate::math::box_mean_interleaved(rgb, w, h, 3, r)
+    crate::imaging::box_mean_interleaved(rgb, w, h, 3, r)
 }
 
 /// The current image's 5×5-pooled mean, as the grades' slopes read it: the slope is taken at
@@ -379,7 +379,7 @@ impl PerceptualCriterion {
             .zip(threshold.par_iter())
             .map(|(&e, &t)| e / t)
             .collect();
-        let local = crate::math::box_mean(&r, w, h, 1);
+        let local = crate::imaging::box_mean(&r, w, h, 1);
         // Without an average budget no floor protects a pixel whose half-buffers agree by
         // luck (heavy-tailed noise, such as caustics, does that in whole patches): its
         // neighbourhood's noise level guards it.
@@ -436,7 +436,7 @@ pub(crate) fn relative_noise(film: &Film) -> Vec<f32> {
                 .fold(0.0, f32::max)
         })
         .collect();
-    crate::math::max_filter3(&own, film.width as usize, film.height as usize)
+    crate::imaging::max_filter3(&own, film.width as usize, film.height as usize)
 }
 
 /// Radius of the neighbourhood whose noise level guards each pixel's estimate (7×7 pixels).
@@ -458,7 +458,7 @@ fn neighbourhood_ratio(r: &[f32], counts: &[u32], w: usize, h: usize) -> Vec<f32
         .zip(counts.par_iter())
         .map(|(&r, &n)| if r.is_finite() { r * r * n as f32 } else { 0.0 })
         .collect();
-    crate::math::box_mean(&s2, w, h, NEIGHBOURHOOD_RADIUS)
+    crate::imaging::box_mean(&s2, w, h, NEIGHBOURHOOD_RADIUS)
         .par_iter()
         .zip(counts.par_iter())
         .map(|(&m, &n)| (m / n.max(1) as f32).sqrt())

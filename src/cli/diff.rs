@@ -105,18 +105,7 @@ pub fn run(args: DiffArgs) -> anyhow::Result<ExitCode> {
 
     if let Some(path) = &args.map {
         let mut out = AtomicOutputs::new();
-        let mean = lr.iter().map(|&v| v as f64).sum::<f64>() / lr.len() as f64;
-        let grey_scale = 0.18 / mean.max(1e-9) as f32;
-        let mut display = Vec::with_capacity(3 * lr.len());
-        for (&l, &ratio) in lr.iter().zip(&result.ratio) {
-            let g = 0.5 * (l * grey_scale).min(1.0);
-            if ratio > 1.0 {
-                let a = (ratio.log2() / 4.0).clamp(0.25, 1.0);
-                display.extend_from_slice(&[a.max(g), g * (1.0 - a), g * (1.0 - a)]);
-            } else {
-                display.extend_from_slice(&[g, g, g]);
-            }
-        }
+        let display = aleph::imaging::difference_overlay(&lr, &result.ratio);
         let bytes = encode_srgb8(&display);
         out.stage(path, |w| {
             write_png(w, path, r.width as u32, r.height as u32, &bytes)

@@ -50,6 +50,8 @@ use crate::texture::Texture;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+pub use crate::sampler::SampleGenerator;
+
 /// Key of the shutter-time stream (independent of the path's stream).
 const TIME_STREAM_KEY: u64 = 0xBB67_AE85_84CA_A73B;
 
@@ -73,19 +75,6 @@ pub struct RenderSettings {
     pub light_sampler: crate::light::LightSampler,
     /// Where a sample's random numbers come from (default: Owen-scrambled Sobol').
     pub sample_generator: SampleGenerator,
-}
-
-/// The source of each camera sample's random numbers.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum SampleGenerator {
-    /// Owen-scrambled Sobol' points per dimension pair ([`crate::sobol::SobolSampler`]):
-    /// randomised quasi-Monte Carlo, lower error per sample.
-    #[default]
-    Sobol,
-    /// Independent PCG32 numbers ([`crate::rng::Rng`]): plain Monte Carlo, whose per-pixel
-    /// error is σ/√n (what a z-test on one render assumes).
-    Independent,
 }
 
 impl Default for RenderSettings {

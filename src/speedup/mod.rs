@@ -209,7 +209,7 @@ impl Judge {
     /// FLIP mean and 5×5-pooled p99 of a FLIP map; returns the pooled map too.
     fn flip_stats(&self, fmap: &[f32]) -> (f64, f64, Vec<f32>) {
         let mean = fmap.iter().map(|&v| v as f64).sum::<f64>() / fmap.len() as f64;
-        let filtered = crate::math::box_mean(fmap, self.width, self.height, 2);
+        let filtered = crate::imaging::box_mean(fmap, self.width, self.height, 2);
         (mean, quantile(&filtered, 0.99), filtered)
     }
 

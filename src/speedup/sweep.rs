@@ -7,8 +7,8 @@ use super::{
 use crate::adaptive::{AdaptiveSettings, Criterion, render_adaptive};
 use crate::display::FrozenToneMap;
 use crate::film::Film;
+use crate::imaging::false_colour;
 use crate::integrator::Strategy;
-use crate::output::false_colour;
 use crate::output::{AtomicOutputs, ChannelData, OutputError, write_exr, write_png};
 use crate::render::{pixel_costs, render_uniform};
 use crate::scene::{Scene, SceneDescription};
@@ -517,7 +517,7 @@ pub fn sweep(
             // correlate at 0.99 (a 5 × 5 mean: 0.61).
             let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
             let raw = pixel_costs(&scene, Strategy::Mis, COST_SPP);
-            st.cost = Some(crate::math::median_filter(&raw, w, h, 2));
+            st.cost = Some(crate::imaging::median_filter(&raw, w, h, 2));
             log(&format!(
                 "pixel costs: {COST_SPP} spp per pixel timed in {:.2} s",
                 t.elapsed().as_secs_f64()

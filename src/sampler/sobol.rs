@@ -25,62 +25,13 @@
 //! A single render's per-pixel error is not σ/√n under randomised QMC: the tests that z-test
 //! pixels ask for independent samples, and the default is tested over independent seeds.
 
+use super::Sampler;
 use crate::rng::{Rng, mix64};
 use glam::Vec2;
 
 /// Dimensions drawn from scrambled Sobol' points (the first bounces of a path); the rest from
 /// PCG32.
 pub const QMC_DIMENSIONS: u32 = 10;
-
-/// A source of canonical random numbers in [0, 1) for one camera sample.
-pub trait SampleSource {
-    /// The next dimension.
-    fn uniform(&mut self) -> f32;
-    /// The next two dimensions, as one 2-D point.
-    fn uniform2(&mut self) -> Vec2;
-    /// Passes over the next dimension, exactly as [`SampleSource::uniform`] would advance the
-    /// source, for a decision that does not need it (the following values are unchanged).
-    #[inline]
-    fn skip(&mut self) {
-        self.uniform();
-    }
-    /// Passes over the next two dimensions, as [`SampleSource::uniform2`] would.
-    #[inline]
-    fn skip2(&mut self) {
-        self.uniform2();
-    }
-    /// The next dimension if `used`, else ½ after passing over it.
-    #[inline]
-    fn uniform_if(&mut self, used: bool) -> f32 {
-        if used {
-            self.uniform()
-        } else {
-            self.skip();
-            0.5
-        }
-    }
-    /// The next two dimensions if `used`, else (½, ½) after passing over them.
-    #[inline]
-    fn uniform2_if(&mut self, used: bool) -> Vec2 {
-        if used {
-            self.uniform2()
-        } else {
-            self.skip2();
-            Vec2::splat(0.5)
-        }
-    }
-}
-
-impl SampleSource for Rng {
-    #[inline]
-    fn uniform(&mut self) -> f32 {
-        Rng::uniform(self)
-    }
-    #[inline]
-    fn uniform2(&mut self) -> Vec2 {
-        Rng::uniform2(self)
-    }
-}
 
 /// A Laine–Karras-style permutation: each output bit depends only on the same and less
 /// significant input bits, so reversing the bits around it gives a nested uniform (Owen)
@@ -245,7 +196,7 @@ impl SobolSampler {
     }
 }
 
-impl SampleSource for SobolSampler {
+impl Sampler for SobolSampler {
     #[inline]
     fn uniform(&mut self) -> f32 {
         if self.dim >= QMC_DIMENSIONS {
