@@ -407,7 +407,7 @@ file = "l.obj"
     let mut results = Vec::new();
     for name in ["bvh", "power"] {
         let scene = Scene::load(&dir.path().join(format!("{name}.toml"))).unwrap();
-        assert_eq!(scene.lights.tris.len(), 1800);
+        assert_eq!(scene.lights.triangle_count(), 1800);
         let film = render(&scene, Strategy::Mis, 64);
         let (mean, se) = image_mean_and_se(&film);
         let var: f64 =
@@ -596,7 +596,7 @@ angular_diameter_deg = 8.0
         ],
     );
     let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
-    assert_eq!(scene.lights.tris.len(), 12);
+    assert_eq!(scene.lights.triangle_count(), 12);
     assert_strategies_agree(&scene, 2048);
 }
 
@@ -630,11 +630,10 @@ fn light_choice_keeps_the_two_dimensional_sample_stratified() {
     let scene = Scene::load(&repo("scenes/cornell-box/scene.toml")).unwrap();
     let lights = &scene.lights;
     assert!(!lights.chooses_with_own_sample());
-    assert_eq!(lights.tris.len(), 2);
+    assert_eq!(lights.triangle_count(), 2);
     let verts: Vec<[glam::Vec3; 3]> = lights
-        .tris
-        .iter()
-        .map(|&t| scene.geometry.world_vertices(t, 0.0))
+        .triangle_ids()
+        .map(|t| scene.geometry.world_vertices(t, 0.0))
         .collect();
     let area = |v: &[glam::Vec3; 3]| 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length();
     let share0 = area(&verts[0]) / (area(&verts[0]) + area(&verts[1]));

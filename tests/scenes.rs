@@ -31,7 +31,7 @@ fn cornell_box_materials_and_light() {
     assert_eq!(red.kind, MaterialKind::Diffuse);
     // The light quad's two triangles are the only emitters, and they face down (−y).
     assert_eq!(s.lights.len(), 2);
-    for &t in &s.lights.tris {
+    for t in s.lights.triangle_ids() {
         assert!(s.geometry.tris.get(t as usize).geometric_normal().y < -0.99);
     }
 }

@@ -195,7 +195,7 @@ emission = [5.0, 5.0, 5.0]
         ],
     );
     let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
-    assert_eq!(scene.lights.tris.len(), 2);
+    assert_eq!(scene.lights.triangle_count(), 2);
     let m = scene.materials.iter().find(|m| m.name == "light").unwrap();
     assert!(m.emission.is_some());
 }

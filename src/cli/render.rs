@@ -571,15 +571,17 @@ fn time_split(r: &AdaptiveResult) -> String {
 /// What loading cost: triangles, lights, wall time of the whole load and of the BVH build.
 pub(super) fn load_line(scene: &Scene, load: std::time::Duration) -> String {
     let l = &scene.lights;
-    let mut lights = vec![format!("{} emissive triangles", l.tris.len())];
-    if l.other.environment.is_some() {
+    let mut lights = vec![format!("{} emissive triangles", l.triangle_count())];
+    if l.environment().is_some() {
         lights.push("an environment".into());
     }
-    if !l.other.suns.is_empty() {
-        lights.push(format!("{} sun(s)", l.other.suns.len()));
+    let suns = l.suns().count();
+    if suns > 0 {
+        lights.push(format!("{suns} sun(s)"));
     }
-    if !l.other.points.is_empty() {
-        lights.push(format!("{} point/spot light(s)", l.other.points.len()));
+    let points = l.points().count();
+    if points > 0 {
+        lights.push(format!("{points} point/spot light(s)"));
     }
     format!(
         "{}: {} triangles, {}; loaded in {:.2} s (BVH build {:.2} s)",

@@ -12,17 +12,28 @@
 //! receiver: pdf_ω = pdf_A · d² / |cos θ_l| (Veach 1997 eq. 8.10). The environment and suns are
 //! sampled in solid angle directly; point and spot lights are delta lights.
 
-mod analytic;
-mod bvh;
-mod environment;
+//!
+//! One file per light type: [`triangle`], [`environment`], [`sun`], [`point`] (point and spot);
+//! [`Light`] is their sum, and [`Lights`] chooses among them (by power, or through the light
+//! [`bvh`]). A new light type is a file here, a variant of [`Light`] with its arms in
+//! [`Lights::build`] and [`Lights::sample`], and its parameters in the scene file's
+//! `[[light]]` table (`scene/schema.rs`, checked in `scene/lights.rs`).
 
-pub use analytic::{PointLight, SUN_ANGULAR_DIAMETER_DEG, Sun};
+mod bvh;
+pub mod environment;
+pub mod point;
+pub mod sun;
+pub mod triangle;
+
 pub use bvh::{LightBounds, LightBvh};
 pub use environment::Environment;
+pub use point::PointLight;
+pub use sun::{SUN_ANGULAR_DIAMETER_DEG, Sun};
+pub use triangle::TriangleLight;
 
 use crate::geometry::{Geometry, Triangles};
 use crate::material::Material;
-use crate::sampling::{Distribution1D, square_to_uniform_triangle};
+use crate::sampling::Distribution1D;
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 
@@ -48,6 +59,38 @@ pub struct LightSample {
     pub delta: bool,
     /// True when `p` lies on a surface (a triangle), so a shadow ray stops short of it.
     pub on_surface: bool,
+}
+
+impl LightSample {
+    /// A sample of a light at infinity: direction `wi` from `p_ref`, radiance `le`, solid-angle
+    /// pdf `pdf` (the choice included).
+    #[inline]
+    pub(crate) fn infinite(p_ref: Vec3, wi: Vec3, le: Vec3, pdf: f32) -> LightSample {
+        LightSample {
+            p: p_ref + wi,
+            n: -wi,
+            le,
+            wi,
+            dist: f32::INFINITY,
+            pdf,
+            delta: false,
+            on_surface: false,
+        }
+    }
+}
+
+/// One light of the scene.
+#[derive(Clone, Debug)]
+pub enum Light {
+    /// An emissive triangle.
+    Triangle(TriangleLight),
+    /// The environment (at most one; boxed, as the sun, so that the enum stays the size of a
+    /// triangle's entry: the triangles are most of the lights and sampling reads them).
+    Environment(Box<Environment>),
+    /// A sun.
+    Sun(Box<Sun>),
+    /// A point or spot light.
+    Point(PointLight),
 }
 
 /// The lights that are not triangles, as the scene file gives them.
@@ -81,19 +124,18 @@ pub enum LightSampler {
     Power,
 }
 
-/// The scene's emitters and the distributions used to choose among them.
+/// Every light of a scene and how next-event estimation chooses among them.
 ///
-/// Lights are numbered for selection: emissive triangles first (`tris[i]` is light i), then the
-/// environment, then the suns, then the point and spot lights.
+/// Lights are numbered for selection: emissive triangles first (light i is the triangle whose
+/// `light` index is i), then the environment, then the suns, then the point and spot lights.
 #[derive(Clone, Debug)]
 pub struct Lights {
-    /// Triangle id of each emissive triangle.
-    pub tris: Vec<u32>,
-    /// World vertices, unit normal and area of each static emissive triangle (as `tris`;
-    /// `None` for one that moves), so that sampling does not recompute them.
-    shapes: Vec<Option<([Vec3; 3], Vec3, f32)>>,
-    /// The environment, suns, point and spot lights.
-    pub other: OtherLights,
+    /// The lights, in selection order.
+    lights: Vec<Light>,
+    /// How many of them are triangles (they come first).
+    n_tris: usize,
+    /// How many lights at infinity (environment and suns) follow the triangles.
+    n_infinite: usize,
     /// Power distribution over every light ([`LightSampler::Power`]).
     dist: Distribution1D,
     /// [`LightSampler::Bvh`]: the BVH and, by power, the choice among the infinite lights
@@ -107,6 +149,11 @@ impl Lights {
     /// [`MIN_BVH_LIGHTS`] triangles, point and spot lights, a light BVH over those. `scene_radius`
     /// is the radius of a sphere bounding the scene (world units; for the power of infinite
     /// lights). Returns `None` if nothing emits.
+    ///
+    /// Power (luminance-weighted, relative): an emissive triangle's Y(Le) × area × π; an
+    /// infinite light's radiance times the area π r² of the scene's bounding disc (4π · π r² ·
+    /// mean Y for the environment, π r² · Y(E) for a sun, as pbrt-v4's `Light::Phi`); a point
+    /// light's 4π Y(I), a spot's 2π Y(I) (1 − (cos θ_start + cos θ_total)/2).
     pub fn build(
         tris: &mut Triangles,
         materials: &[Material],
@@ -115,7 +162,7 @@ impl Lights {
         scene_radius: f32,
         sampler: LightSampler,
     ) -> Option<Lights> {
-        let mut ids = Vec::new();
+        let mut lights = Vec::new();
         let mut powers: Vec<f64> = Vec::new();
         for i in 0..tris.len() {
             tris.set_light(i, u32::MAX);
@@ -127,21 +174,26 @@ impl Lights {
             // tiny one underflows it; such lights must not silently vanish.
             let p64 = y as f64 * t.area() as f64 * std::f64::consts::PI;
             if p64 > 0.0 && p64.is_finite() {
-                tris.set_light(i, ids.len() as u32);
-                ids.push(i as u32);
+                tris.set_light(i, lights.len() as u32);
+                lights.push(Light::Triangle(TriangleLight::new(tris, i as u32)));
                 powers.push(p64);
             }
         }
+        let n_tris = lights.len();
         let disc = std::f64::consts::PI * (scene_radius as f64).max(1e-6).powi(2);
         let lum = |v: Vec3| crate::math::luminance(v.max(Vec3::ZERO)) as f64;
-        if let Some(env) = &other.environment {
+        if let Some(env) = other.environment {
             powers.push(4.0 * std::f64::consts::PI * disc * env.mean_luminance() as f64);
+            lights.push(Light::Environment(Box::new(env)));
         }
-        for sun in &other.suns {
+        for sun in other.suns {
             powers.push(disc * lum(sun.irradiance));
+            lights.push(Light::Sun(Box::new(sun)));
         }
-        for p in &other.points {
+        let n_infinite = lights.len() - n_tris;
+        for p in other.points {
             powers.push(p.power_factor() as f64 * lum(p.intensity));
+            lights.push(Light::Point(p));
         }
         let max = powers.iter().copied().fold(0.0, f64::max);
         if !(max > 0.0 && max.is_finite()) {
@@ -154,25 +206,17 @@ impl Lights {
             .map(|&p| ((p / max) as f32).max(f32::MIN_POSITIVE))
             .collect();
         let dist = Distribution1D::new(weights.clone())?;
+        let n_points = lights.len() - n_tris - n_infinite;
         let tree = match sampler {
-            LightSampler::Power => None,
-            LightSampler::Bvh if ids.len() + other.points.len() >= MIN_BVH_LIGHTS => {
-                Self::tree(tris, &ids, &other, &weights)
+            LightSampler::Bvh if n_tris + n_points >= MIN_BVH_LIGHTS => {
+                Self::tree(tris, &lights, n_tris, n_infinite, &weights)
             }
-            LightSampler::Bvh => None,
+            LightSampler::Bvh | LightSampler::Power => None,
         };
-        let shapes = ids
-            .iter()
-            .map(|&i| {
-                let i = i as usize;
-                (tris.instance(i) == crate::geometry::STATIC_INSTANCE)
-                    .then(|| triangle_shape(tris.positions(i)))
-            })
-            .collect();
         Some(Lights {
-            tris: ids,
-            shapes,
-            other,
+            lights,
+            n_tris,
+            n_infinite,
             dist,
             tree,
         })
@@ -182,58 +226,22 @@ impl Lights {
     /// light order), and the power choice among the infinite lights and the BVH.
     fn tree(
         tris: &Triangles,
-        ids: &[u32],
-        other: &OtherLights,
+        lights: &[Light],
+        n_tris: usize,
+        n_inf: usize,
         weights: &[f32],
     ) -> Option<(LightBvh, Distribution1D)> {
-        let n_inf = other.environment.is_some() as usize + other.suns.len();
         let mut items: Vec<(u32, LightBounds)> = Vec::new();
-        for (li, &tri) in ids.iter().enumerate() {
-            let t = tris.get(tri as usize);
-            let (lo, hi) = (
-                t.p[0].min(t.p[1]).min(t.p[2]),
-                t.p[0].max(t.p[1]).max(t.p[2]),
-            );
-            // A moving emitter's triangle is in rest space: any direction, any nearby place,
-            // importance never zero (unbiased, if less sharp).
-            let moving = t.instance != crate::geometry::STATIC_INSTANCE;
-            items.push((
-                li as u32,
-                LightBounds {
-                    lo,
-                    hi,
-                    phi: weights[li],
-                    w: t.geometric_normal(),
-                    cos_o: if moving { -1.0 } else { 1.0 },
-                    cos_e: if moving { -1.0 } else { 0.0 },
-                    two_sided: false,
-                },
-            ));
-        }
-        let first_point = ids.len() + n_inf;
-        for (k, p) in other.points.iter().enumerate() {
-            let li = first_point + k;
-            let (w, cos_o, cos_e) = match p.spot {
-                None => (Vec3::Y, -1.0, 0.0),
-                Some((axis, cos_total, cos_start)) => {
-                    (axis, cos_start, (cos_total.acos() - cos_start.acos()).cos())
-                }
+        for (li, light) in lights.iter().enumerate() {
+            let bounds = match light {
+                Light::Triangle(t) => t.bounds(tris, weights[li]),
+                Light::Point(p) => p.bounds(weights[li]),
+                Light::Environment(_) | Light::Sun(_) => continue,
             };
-            items.push((
-                li as u32,
-                LightBounds {
-                    lo: p.position,
-                    hi: p.position,
-                    phi: weights[li],
-                    w,
-                    cos_o,
-                    cos_e,
-                    two_sided: false,
-                },
-            ));
+            items.push((li as u32, bounds));
         }
         let bvh = LightBvh::build(items, weights.len());
-        let mut top: Vec<f32> = weights[ids.len()..ids.len() + n_inf].to_vec();
+        let mut top: Vec<f32> = weights[n_tris..n_tris + n_inf].to_vec();
         if let Some(b) = &bvh {
             top.push(b.power().max(f32::MIN_POSITIVE));
         }
@@ -251,6 +259,48 @@ impl Lights {
         self.dist.is_empty()
     }
 
+    /// Every light, in selection order.
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
+    /// The geometry's index of each emissive triangle, in light order.
+    pub fn triangle_ids(&self) -> impl Iterator<Item = u32> + '_ {
+        self.lights[..self.n_tris].iter().map(|l| match l {
+            Light::Triangle(t) => t.tri,
+            _ => unreachable!("triangles come first"),
+        })
+    }
+
+    /// Number of emissive triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.n_tris
+    }
+
+    /// The environment, if any.
+    pub fn environment(&self) -> Option<&Environment> {
+        self.lights.iter().find_map(|l| match l {
+            Light::Environment(e) => Some(&**e),
+            _ => None,
+        })
+    }
+
+    /// The suns.
+    pub fn suns(&self) -> impl Iterator<Item = &Sun> + '_ {
+        self.lights.iter().filter_map(|l| match l {
+            Light::Sun(s) => Some(&**s),
+            _ => None,
+        })
+    }
+
+    /// The point and spot lights.
+    pub fn points(&self) -> impl Iterator<Item = &PointLight> + '_ {
+        self.lights.iter().filter_map(|l| match l {
+            Light::Point(p) => Some(p),
+            _ => None,
+        })
+    }
+
     /// Total emitted power weight (relative units; for statistics).
     pub fn total_power(&self) -> f64 {
         self.dist.total()
@@ -259,17 +309,7 @@ impl Lights {
     /// True when light reaches rays that leave the scene (an environment or a sun).
     #[inline]
     pub fn has_infinite(&self) -> bool {
-        self.other.environment.is_some() || !self.other.suns.is_empty()
-    }
-
-    #[inline]
-    fn env_index(&self) -> usize {
-        self.tris.len()
-    }
-
-    #[inline]
-    fn sun_index(&self, k: usize) -> usize {
-        self.tris.len() + self.other.environment.is_some() as usize + k
+        self.n_infinite > 0
     }
 
     /// True when [`Lights::sample`] chooses the light with a number of its own (`uc`): with the
@@ -298,7 +338,7 @@ impl Lights {
                 let (k, pk, u) = top.sample_remap(uc);
                 let n_inf = top.len() - 1;
                 if k < n_inf {
-                    return Some((self.tris.len() + k, pk));
+                    return Some((self.n_tris + k, pk));
                 }
                 let (li, pb) = bvh.sample(p, n, u)?;
                 Some((li as usize, pk * pb))
@@ -313,7 +353,7 @@ impl Lights {
             None => self.dist.pmf(li),
             Some((bvh, top)) => {
                 let n_inf = top.len() - 1;
-                let first_inf = self.tris.len();
+                let first_inf = self.n_tris;
                 if (first_inf..first_inf + n_inf).contains(&li) {
                     top.pmf(li - first_inf)
                 } else {
@@ -349,94 +389,15 @@ impl Lights {
             let (li, pmf) = self.choose(p_ref, n_ref, u.x)?;
             (li, pmf, Vec2::new(self.dist.remap(li, u.x), u.y))
         };
-        if li < self.tris.len() {
-            return self.sample_triangle(li, pmf, p_ref, u, time, geo, materials, textures);
-        }
-        let mut k = li - self.tris.len();
-        let infinite = |wi: Vec3, le: Vec3, pdf: f32| LightSample {
-            p: p_ref + wi,
-            n: -wi,
-            le,
-            wi,
-            dist: f32::INFINITY,
-            pdf,
-            delta: false,
-            on_surface: false,
-        };
-        if let Some(env) = &self.other.environment {
-            if k == 0 {
+        match &self.lights[li] {
+            Light::Triangle(t) => t.sample_from(pmf, p_ref, u, time, geo, materials, textures),
+            Light::Environment(env) => {
                 let (wi, le, pdf) = env.sample(u)?;
-                return Some(infinite(wi, le, pmf * pdf));
+                Some(LightSample::infinite(p_ref, wi, le, pmf * pdf))
             }
-            k -= 1;
+            Light::Sun(sun) => Some(sun.sample_from(p_ref, u, pmf)),
+            Light::Point(point) => point.sample_from(p_ref, pmf),
         }
-        if let Some(sun) = self.other.suns.get(k) {
-            let (wi, pdf) = sun.sample(u);
-            return Some(infinite(wi, sun.radiance, pmf * pdf));
-        }
-        let light = &self.other.points[k - self.other.suns.len()];
-        let d = light.position - p_ref;
-        let dist2 = d.length_squared();
-        if dist2 <= 0.0 {
-            return None;
-        }
-        let dist = dist2.sqrt();
-        let wi = d / dist;
-        Some(LightSample {
-            p: light.position,
-            n: -wi,
-            le: light.intensity_towards(-wi) / dist2,
-            wi,
-            dist,
-            pdf: pmf,
-            delta: true,
-            on_surface: false,
-        })
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn sample_triangle(
-        &self,
-        li: usize,
-        pmf: f32,
-        p_ref: Vec3,
-        u: Vec2,
-        time: f32,
-        geo: &Geometry,
-        materials: &[Material],
-        textures: &[Texture],
-    ) -> Option<LightSample> {
-        let tri = self.tris[li];
-        let (v, n, area) = self.shape(li, geo, tri, time);
-        let b = square_to_uniform_triangle(u);
-        let b0 = 1.0 - b.x - b.y;
-        let p = v[0] * b.x + v[1] * b.y + v[2] * b0;
-        let d = p - p_ref;
-        let dist2 = d.length_squared();
-        if dist2 <= 0.0 || area <= 0.0 {
-            return None;
-        }
-        let dist = dist2.sqrt();
-        let wi = d / dist;
-        let cos_l = -wi.dot(n);
-        if cos_l <= 1e-7 {
-            return None; // back of a one-sided emitter, or grazing
-        }
-        let (uvs, material) = (geo.tris.uvs(tri as usize), geo.tris.material(tri as usize));
-        let uv = uvs[0] * b.x + uvs[1] * b.y + uvs[2] * b0;
-        let le = materials[material as usize].emitted(uv, textures);
-        let pdf = pmf / area * dist2 / cos_l;
-        Some(LightSample {
-            p,
-            n,
-            le,
-            wi,
-            dist,
-            pdf,
-            delta: false,
-            on_surface: true,
-        })
     }
 
     /// Radiance arriving along unit direction `d` from the lights at infinity (a ray that left
@@ -445,17 +406,23 @@ impl Lights {
     #[inline]
     pub fn infinite_radiance(&self, d: Vec3, weight: impl Fn(f32) -> f32) -> Vec3 {
         let mut l = Vec3::ZERO;
-        if let Some(env) = &self.other.environment {
-            let le = env.radiance(d);
-            if le.max_element() > 0.0 {
-                let pmf = self.choice_pmf(Vec3::ZERO, Vec3::ZERO, self.env_index());
-                l += le * weight(pmf * env.pdf(d));
-            }
-        }
-        for (k, sun) in self.other.suns.iter().enumerate() {
-            if sun.contains(d) {
-                let pmf = self.choice_pmf(Vec3::ZERO, Vec3::ZERO, self.sun_index(k));
-                l += sun.radiance * weight(pmf * sun.pdf(d));
+        let first = self.n_tris;
+        for (k, light) in self.lights[first..first + self.n_infinite]
+            .iter()
+            .enumerate()
+        {
+            let pmf = || self.choice_pmf(Vec3::ZERO, Vec3::ZERO, first + k);
+            match light {
+                Light::Environment(env) => {
+                    let le = env.radiance(d);
+                    if le.max_element() > 0.0 {
+                        l += le * weight(pmf() * env.pdf(d));
+                    }
+                }
+                Light::Sun(sun) if sun.contains(d) => {
+                    l += sun.radiance * weight(pmf() * sun.pdf(d));
+                }
+                _ => {}
             }
         }
         l
@@ -474,39 +441,22 @@ impl Lights {
         p_light: Vec3,
     ) -> f32 {
         let light = geo.tris.light(tri as usize);
-        if light == u32::MAX {
+        let Some(Light::Triangle(t)) = self.lights.get(light as usize) else {
             return 0.0;
+        };
+        match t.area_to_solid_angle(geo, time, p_ref, p_light) {
+            Some((area, dist2, cos_l)) => {
+                self.choice_pmf(p_ref, n_ref, light as usize) / area * dist2 / cos_l
+            }
+            None => 0.0,
         }
-        let (_, n, area) = self.shape(light as usize, geo, tri, time);
-        let d = p_light - p_ref;
-        let dist2 = d.length_squared();
-        let cos_l = (-d.dot(n) / dist2.sqrt()).max(0.0);
-        if cos_l <= 1e-7 || area <= 0.0 {
-            return 0.0;
-        }
-        self.choice_pmf(p_ref, n_ref, light as usize) / area * dist2 / cos_l
     }
 }
 
-/// A triangle's vertices, unit normal (from the winding) and area.
-#[inline]
-fn triangle_shape(v: [Vec3; 3]) -> ([Vec3; 3], Vec3, f32) {
-    let cross = (v[1] - v[0]).cross(v[2] - v[0]);
-    (
-        v,
-        crate::math::robust_normalize(cross),
-        0.5 * crate::math::robust_length(cross),
-    )
-}
-
-impl Lights {
-    /// Emitter `li` (triangle `tri`) at scene time `time`: its world vertices, unit normal and
-    /// area (stored for a static triangle, computed for a moving one).
-    #[inline]
-    fn shape(&self, li: usize, geo: &Geometry, tri: u32, time: f32) -> ([Vec3; 3], Vec3, f32) {
-        match self.shapes[li] {
-            Some(s) => s,
-            None => triangle_shape(geo.world_vertices(tri, time)),
-        }
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_light_is_the_size_of_a_triangle_entry() {
+        assert!(std::mem::size_of::<super::Light>() <= 64);
     }
 }

@@ -1,6 +1,7 @@
-//! Lights given by a formula rather than by geometry: the sun (a distant disc of finite angular
-//! size) and point and spot lights (delta lights).
+//! The sun: a distant disc of finite angular size (a light at infinity that BSDF-sampled rays
+//! also reach, so it takes part in MIS).
 
+use super::LightSample;
 use crate::math::Frame;
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -97,49 +98,13 @@ impl Sun {
     }
 }
 
-/// A point light of radiant intensity `intensity` (W·sr⁻¹), optionally confined to a cone (a
-/// spot light). A delta light: reached only by next-event estimation, never by a BSDF-sampled
-/// ray, so it takes no part in MIS.
-///
-/// A spot light's intensity falls from full inside `cos_start` to zero outside `cos_total` with
-/// the smoothstep of cos θ (pbrt-v4's `SpotLight::I`, §12.2.1).
-#[derive(Clone, Debug)]
-pub struct PointLight {
-    /// Position, world units.
-    pub position: Vec3,
-    /// Radiant intensity on the axis, W·sr⁻¹.
-    pub intensity: Vec3,
-    /// Spot cone: unit axis, cos of the total half-angle, cos of the start of the falloff.
-    pub spot: Option<(Vec3, f32, f32)>,
-}
-
-impl PointLight {
-    /// Intensity towards unit direction `w` (from the light outwards), W·sr⁻¹.
+impl Sun {
+    /// Next-event sample from `p_ref` with the point's 2-D number `u`, the light chosen with
+    /// probability `pmf`.
     #[inline]
-    pub fn intensity_towards(&self, w: Vec3) -> Vec3 {
-        match self.spot {
-            None => self.intensity,
-            Some((axis, cos_total, cos_start)) => {
-                let c = w.dot(axis);
-                if c <= cos_total {
-                    return Vec3::ZERO;
-                }
-                if c >= cos_start {
-                    return self.intensity;
-                }
-                let t = ((c - cos_total) / (cos_start - cos_total)).clamp(0.0, 1.0);
-                self.intensity * (t * t * (3.0 - 2.0 * t))
-            }
-        }
-    }
-
-    /// Radiant power, W (luminance-weighted by the caller): 4π I for a point light and
-    /// 2π I (1 − (cos_start + cos_total)/2) for a spot (pbrt-v4's `SpotLight::Phi`).
-    pub fn power_factor(&self) -> f32 {
-        match self.spot {
-            None => 4.0 * PI,
-            Some((_, cos_total, cos_start)) => 2.0 * PI * (1.0 - 0.5 * (cos_start + cos_total)),
-        }
+    pub(super) fn sample_from(&self, p_ref: Vec3, u: glam::Vec2, pmf: f32) -> LightSample {
+        let (wi, pdf) = self.sample(u);
+        LightSample::infinite(p_ref, wi, self.radiance, pmf * pdf)
     }
 }
 
@@ -172,29 +137,5 @@ mod tests {
                 "{diameter}: {e}"
             );
         }
-    }
-
-    #[test]
-    fn spot_falloff_is_smooth_and_bounded() {
-        let spot = PointLight {
-            position: Vec3::ZERO,
-            intensity: Vec3::ONE,
-            spot: Some((Vec3::Y, 30f32.to_radians().cos(), 25f32.to_radians().cos())),
-        };
-        let at = |deg: f32| {
-            spot.intensity_towards(Vec3::new(
-                deg.to_radians().sin(),
-                deg.to_radians().cos(),
-                0.0,
-            ))
-            .x
-        };
-        assert_eq!(at(0.0), 1.0);
-        assert_eq!(at(24.0), 1.0);
-        assert_eq!(at(31.0), 0.0);
-        let mid = at(27.5);
-        assert!(mid > 0.3 && mid < 0.7, "{mid}");
-        // Power: 2π(1 − (cos 25° + cos 30°)/2), within the point light's 4π.
-        assert!(spot.power_factor() > 0.0 && spot.power_factor() < 4.0 * PI);
     }
 }
