@@ -1,7 +1,9 @@
 //! Adaptive sampling: where the samples go, and that the loop is honest.
 
 use crate::util::*;
-use aleph::adaptive::{AdaptiveSettings, Criterion, Visibility, render_adaptive};
+use aleph::adaptive::{
+    AdaptiveSettings, Criterion, PerceptualSettings, Visibility, render_adaptive,
+};
 use aleph::integrator::Strategy;
 use aleph::render::render_uniform;
 use aleph::scene::Scene;
@@ -143,8 +145,11 @@ fn dark_regions_tolerate_more_relative_error() {
         budget_spp: Some(48.0),
         // Small budgets, to test the loop's decisions (unsteered by default).
         steer_from_spp: 0.0,
-        visibility: Visibility::Scene,
-        latitude_ev: 0.0,
+        perceptual: PerceptualSettings {
+            visibility: Visibility::Scene,
+            latitude_ev: 0.0,
+            ..Default::default()
+        },
         ..AdaptiveSettings::default()
     };
     s.tone.view.ppd = 12.0;
@@ -171,7 +176,10 @@ fn highlights_clipped_on_display_keep_their_samples_under_the_exposure_latitude(
     let spp_left = |latitude_ev: f64| {
         let mut s = AdaptiveSettings {
             max_spp: 128,
-            latitude_ev,
+            perceptual: PerceptualSettings {
+                latitude_ev,
+                ..Default::default()
+            },
             ..AdaptiveSettings::default()
         };
         // A display that clips: the plain exposure (the default, Reinhard's, keeps highlights).
@@ -282,7 +290,10 @@ fn saliency_sends_more_samples_to_the_salient_object() {
         // Until converged (capped): a budget's 3/4 floor would leave the ranking little room.
         let s = AdaptiveSettings {
             max_spp: 256,
-            saliency_weight: omega,
+            perceptual: PerceptualSettings {
+                saliency_weight: omega,
+                ..Default::default()
+            },
             ..AdaptiveSettings::default()
         };
         let r = render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap();

@@ -374,7 +374,10 @@ fn tile_split_cost() {
         // own rows uniformly, so the split then costs nothing.
         let one = AdaptiveSettings {
             budget_spp: spp,
-            visibility: vis,
+            perceptual: aleph::adaptive::PerceptualSettings {
+                visibility: vis,
+                ..Default::default()
+            },
             steer_from_spp: 0.0,
             ..Default::default()
         };

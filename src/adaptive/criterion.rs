@@ -134,7 +134,7 @@ impl PerceptualCriterion {
             view = view.with_fps(a.fps)?;
         }
         Ok(PerceptualCriterion {
-            mapper: ThresholdMapper::new(w, h, view, s.threshold)?,
+            mapper: ThresholdMapper::new(w, h, view, s.perceptual.threshold)?,
             velocity,
             state: None,
             threshold: None,
@@ -157,7 +157,7 @@ impl PerceptualCriterion {
         let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
         let n_px = w * h;
         let t_guide = Instant::now();
-        let spp = s.guide_spp.max(1);
+        let spp = s.perceptual.guide_spp.max(1);
         // Common random numbers across the frames of a sequence (the render seed, not the
         // frame's): the guide's own noise then cannot make the masking, and so the threshold,
         // flicker from frame to frame.
@@ -171,7 +171,7 @@ impl PerceptualCriterion {
         });
         let a_lum = luminance_image(&albedo, 1.0);
         let mean_a = a_lum.iter().map(|&v| v as f64).sum::<f64>() / n_px as f64;
-        let saliency = if s.saliency_weight > 0.0 {
+        let saliency = if s.perceptual.saliency_weight > 0.0 {
             let display = match frozen {
                 Some(f) => f.map(mean)?,
                 None => mean.to_vec(),
@@ -231,7 +231,7 @@ impl PerceptualCriterion {
 
     /// Error estimate per pixel in scene luminance (cd/m², Y × `scale`).
     fn error(film: &Film, s: &AdaptiveSettings, scale: f32) -> Vec<f32> {
-        match s.error_estimate {
+        match s.perceptual.error_estimate {
             ErrorEstimate::HalfBuffers => {
                 let la = luminance_image(&film.mean_rgb_even(), scale);
                 let lb = luminance_image(&film.mean_rgb_odd(), scale);
@@ -271,8 +271,8 @@ impl PerceptualCriterion {
             w,
             h,
             &s.tone.view,
-            s.threshold.adaptation,
-            s.threshold.adaptation_window_deg,
+            s.perceptual.threshold.adaptation,
+            s.perceptual.threshold.adaptation_window_deg,
         )?;
         let up = grade.luminance(&pooled.up)?;
         let down = grade.luminance(&pooled.down)?;
@@ -312,7 +312,7 @@ impl PerceptualCriterion {
             return Ok((Judgement { error, threshold }, Duration::ZERO));
         }
         let mean = film.mean_rgb();
-        let frozen = match s.visibility {
+        let frozen = match s.perceptual.visibility {
             // A row tile sees the rest of the image at first-pass noise, whose log average is
             // biased low (Jensen's inequality): fitted to it, the curve came out brighter than
             // the single machine's, clipped the bright wall and stopped early. The tile fits
@@ -358,7 +358,8 @@ impl PerceptualCriterion {
                 .for_each(|(a, &b)| *a = a.min(b));
         }
         if let Some(sal) = &st.saliency {
-            threshold = perception::saliency::aleph_map(&threshold, sal, s.saliency_weight)?;
+            threshold =
+                perception::saliency::aleph_map(&threshold, sal, s.perceptual.saliency_weight)?;
         }
         self.threshold = Some((spp, threshold.clone()));
         let error = Self::pooled_error(film, s, scale, &threshold);

@@ -169,10 +169,12 @@ pub const CYCLES_DEFAULT_THRESHOLD: f32 = 0.01;
 /// noise threshold (automatic minimum ⌈16 / t^0.3⌉ = 64 at t = 0.01).
 pub const STEER_FROM_SPP: f64 = 128.0;
 
-/// Settings of the adaptive loop.
+/// Settings of the adaptive loop, grouped by what they configure: the rule, the loop's budget
+/// and stop (flat, as every rule reads them), the display, the perceptual rule's model
+/// ([`PerceptualSettings`]), the variance rule's threshold, and a tile's rows.
 #[derive(Clone, Debug)]
 pub struct AdaptiveSettings {
-    /// The sampler.
+    /// The adaptive decision rule.
     pub criterion: Criterion,
     /// Samples per pixel of the first, uniform pass (default 8; at least 2 for half-buffers).
     pub min_spp: u32,
@@ -192,35 +194,56 @@ pub struct AdaptiveSettings {
     pub time_budget: Option<Duration>,
     /// Fraction of pixels below threshold that counts as converged (default 0.995).
     pub converged_fraction: f64,
-    /// Where visibility is judged (default: display).
-    pub visibility: Visibility,
     /// The tone mapping of the displayed image (and the viewing conditions).
     pub tone: ToneMapSettings,
-    /// Threshold-map settings.
-    pub threshold: ThresholdParams,
-    /// Cycles' noise threshold for the variance sampler (default 0.01).
+    /// The perceptual rule's visual model and error estimate.
+    pub perceptual: PerceptualSettings,
+    /// Cycles' noise threshold for the variance rule (default 0.01; that rule only).
     pub variance_threshold: f32,
-    /// Weight ω of visual saliency in the perceptual threshold (Yee et al. 2001's Aleph map,
-    /// ΔL / (1 + ω S) with S the Itti–Koch–Niebur saliency of the first pass's display image);
-    /// 0 (default) turns it off.
-    pub saliency_weight: f32,
-    /// Error estimate of the perceptual sampler (default: half-buffers).
-    pub error_estimate: ErrorEstimate,
-    /// Samples per pixel of the albedo guide (default 4; only antialiasing needs them).
-    pub guide_spp: u32,
-    /// Whether the perceptual threshold takes the frame's velocity map (default true; only
-    /// sequences have one): moving content is seen through the spatiovelocity CSF.
-    pub use_velocity: bool,
-    /// Exposure latitude of the perceptual threshold, stops (default 2): noise must stay below
-    /// threshold on the image as displayed and graded `latitude_ev` stops darker and brighter
-    /// under the same curve, so that a user grading the EXR finds no noise the sampler left.
-    /// 0 judges the displayed image only.
-    pub latitude_ev: f64,
     /// Rows `start..end` that take samples after the first pass: a tile of one frame split
     /// across machines (default `None`: every row). The first pass still covers the whole image,
     /// so that the threshold map sees every pixel; the budget, the converged fraction and the
     /// stop rule count the tile's pixels only.
     pub rows: Option<(u32, u32)>,
+}
+
+/// Settings of the perceptual rule only.
+#[derive(Clone, Debug)]
+pub struct PerceptualSettings {
+    /// Where visibility is judged (default: display).
+    pub visibility: Visibility,
+    /// Threshold-map settings.
+    pub threshold: ThresholdParams,
+    /// Weight ω of visual saliency in the perceptual threshold (Yee et al. 2001's Aleph map,
+    /// ΔL / (1 + ω S) with S the Itti–Koch–Niebur saliency of the first pass's display image);
+    /// 0 (default) turns it off.
+    pub saliency_weight: f32,
+    /// Error estimate (default: half-buffers).
+    pub error_estimate: ErrorEstimate,
+    /// Samples per pixel of the albedo guide (default 4; only antialiasing needs them).
+    pub guide_spp: u32,
+    /// Whether the threshold takes the frame's velocity map (default true; only sequences have
+    /// one): moving content is seen through the spatiovelocity CSF.
+    pub use_velocity: bool,
+    /// Exposure latitude of the threshold, stops (default 2): noise must stay below threshold
+    /// on the image as displayed and graded `latitude_ev` stops darker and brighter under the
+    /// same curve, so that a user grading the EXR finds no noise the sampler left. 0 judges
+    /// the displayed image only.
+    pub latitude_ev: f64,
+}
+
+impl Default for PerceptualSettings {
+    fn default() -> Self {
+        PerceptualSettings {
+            visibility: Visibility::Display,
+            threshold: ThresholdParams::default(),
+            saliency_weight: 0.0,
+            error_estimate: ErrorEstimate::HalfBuffers,
+            guide_spp: 4,
+            use_velocity: true,
+            latitude_ev: 2.0,
+        }
+    }
 }
 
 impl Default for AdaptiveSettings {
@@ -234,18 +257,12 @@ impl Default for AdaptiveSettings {
             uniform_spp: 64,
             time_budget: None,
             converged_fraction: 0.995,
-            visibility: Visibility::Display,
             tone: ToneMapSettings {
                 operator: perception::tmo::Operator::Reinhard,
                 ..ToneMapSettings::default()
             },
-            threshold: ThresholdParams::default(),
+            perceptual: PerceptualSettings::default(),
             variance_threshold: CYCLES_DEFAULT_THRESHOLD,
-            guide_spp: 4,
-            error_estimate: ErrorEstimate::HalfBuffers,
-            saliency_weight: 0.0,
-            use_velocity: true,
-            latitude_ev: 2.0,
             rows: None,
         }
     }
@@ -254,7 +271,7 @@ impl Default for AdaptiveSettings {
 impl AdaptiveSettings {
     /// Units of the threshold and error maps this sampler produces.
     pub fn units(&self) -> &'static str {
-        match (self.criterion, self.visibility) {
+        match (self.criterion, self.perceptual.visibility) {
             (Criterion::Variance, _) => "Cycles relative error (dimensionless)",
             (_, Visibility::Display) => {
                 "scene luminance, cd/m^2 (display thresholds over the tone curve's slope; 1e30 where every grade clips)"
@@ -266,8 +283,12 @@ impl AdaptiveSettings {
     /// The grades the perceptual threshold holds at, stops: 0 (as displayed), then −L and +L
     /// for the latitude L when it is positive.
     pub fn grades_ev(&self) -> Vec<f64> {
-        if self.latitude_ev > 0.0 {
-            vec![0.0, -self.latitude_ev, self.latitude_ev]
+        if self.perceptual.latitude_ev > 0.0 {
+            vec![
+                0.0,
+                -self.perceptual.latitude_ev,
+                self.perceptual.latitude_ev,
+            ]
         } else {
             vec![0.0]
         }
@@ -367,25 +388,28 @@ impl AdaptiveSettings {
                 self.variance_threshold
             ));
         }
-        if !(self.saliency_weight.is_finite() && self.saliency_weight >= 0.0) {
+        if !(self.perceptual.saliency_weight.is_finite() && self.perceptual.saliency_weight >= 0.0)
+        {
             return bad(format!(
                 "saliency_weight (--saliency) must be ≥ 0, got {}",
-                self.saliency_weight
+                self.perceptual.saliency_weight
             ));
         }
-        let w = self.threshold.adaptation_window_deg;
+        let w = self.perceptual.threshold.adaptation_window_deg;
         if !(w.is_finite() && w > 0.0) {
             return bad(format!(
                 "adaptation window (--adaptation-window) must be positive, got {w} degrees"
             ));
         }
-        if !(self.latitude_ev.is_finite() && (0.0..=10.0).contains(&self.latitude_ev)) {
+        if !(self.perceptual.latitude_ev.is_finite()
+            && (0.0..=10.0).contains(&self.perceptual.latitude_ev))
+        {
             return bad(format!(
                 "exposure latitude (--latitude) must be in [0, 10] stops, got {}",
-                self.latitude_ev
+                self.perceptual.latitude_ev
             ));
         }
-        if self.guide_spp == 0 {
+        if self.perceptual.guide_spp == 0 {
             return bad("guide_spp (--guide-spp) must be at least 1".into());
         }
         if self.time_budget.is_some_and(|t| t.is_zero()) {
@@ -663,7 +687,7 @@ fn judge_for(
     Ok(match s.criterion {
         Criterion::Perceptual => {
             let motion = velocity
-                .filter(|_| s.use_velocity)
+                .filter(|_| s.perceptual.use_velocity)
                 .map(|v| v.motion_px_per_frame());
             Judge::Perceptual(Box::new(PerceptualCriterion::new(scene, s, motion)?))
         }

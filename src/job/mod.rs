@@ -20,7 +20,9 @@ pub use driver::{
 };
 pub use merge::{MergeReport, merge};
 
-use crate::adaptive::{AdaptiveError, AdaptiveSettings, Criterion, ErrorEstimate, Visibility};
+use crate::adaptive::{
+    AdaptiveError, AdaptiveSettings, Criterion, ErrorEstimate, PerceptualSettings, Visibility,
+};
 use crate::deliver::Look;
 use crate::display::ToneMapSettings;
 use crate::error::SceneError;
@@ -134,15 +136,15 @@ impl Default for SamplingOptions {
             max_spp: a.max_spp,
             steer_from_spp: a.steer_from_spp,
             converged_fraction: a.converged_fraction,
-            visibility: a.visibility,
+            visibility: a.perceptual.visibility,
             noise_threshold: a.variance_threshold,
-            guide_spp: a.guide_spp,
-            error_estimate: a.error_estimate,
-            saliency: a.saliency_weight,
-            adaptation_window_deg: a.threshold.adaptation_window_deg,
-            latitude_ev: a.latitude_ev,
+            guide_spp: a.perceptual.guide_spp,
+            error_estimate: a.perceptual.error_estimate,
+            saliency: a.perceptual.saliency_weight,
+            adaptation_window_deg: a.perceptual.threshold.adaptation_window_deg,
+            latitude_ev: a.perceptual.latitude_ev,
             ppd: None,
-            use_velocity: a.use_velocity,
+            use_velocity: a.perceptual.use_velocity,
         }
     }
 }
@@ -498,13 +500,6 @@ impl RenderJob {
         let defaults = AdaptiveSettings::default();
         let settings = AdaptiveSettings {
             criterion: self.criterion,
-            threshold: perception::threshold::ThresholdParams {
-                adaptation_window_deg: s.adaptation_window_deg,
-                ..defaults.threshold
-            },
-            saliency_weight: s.saliency,
-            use_velocity: s.use_velocity,
-            error_estimate: s.error_estimate,
             min_spp: s.min_spp,
             max_spp: s.max_spp,
             steer_from_spp: s.steer_from_spp,
@@ -512,11 +507,20 @@ impl RenderJob {
             uniform_spp,
             time_budget: self.budget.time_s.map(Duration::from_secs_f64),
             converged_fraction: s.converged_fraction,
-            visibility: s.visibility,
             tone,
+            perceptual: PerceptualSettings {
+                visibility: s.visibility,
+                threshold: perception::threshold::ThresholdParams {
+                    adaptation_window_deg: s.adaptation_window_deg,
+                    ..defaults.perceptual.threshold
+                },
+                saliency_weight: s.saliency,
+                error_estimate: s.error_estimate,
+                guide_spp: s.guide_spp,
+                use_velocity: s.use_velocity,
+                latitude_ev: s.latitude_ev,
+            },
             variance_threshold: s.noise_threshold,
-            guide_spp: s.guide_spp,
-            latitude_ev: s.latitude_ev,
             rows: None,
         };
         settings.validate()?;

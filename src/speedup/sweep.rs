@@ -766,14 +766,14 @@ fn sweep_frame(
     stage_png(&mut images, "reference", &reference.mean)?;
     for (bi, &budget) in spec.budgets.iter().enumerate() {
         for (ai, &arm) in ctx.arms.iter().enumerate() {
-            let settings = AdaptiveSettings {
+            let mut settings = AdaptiveSettings {
                 criterion: arm.sampler(),
                 budget_spp: Some(budget),
                 uniform_spp: budget as u32,
                 tone: ctx.tone,
-                use_velocity: arm != Arm::PerceptualNoVelocity,
                 ..base.clone()
             };
+            settings.perceptual.use_velocity = arm != Arm::PerceptualNoVelocity;
             let (row, rgb) = judged_render(ctx, &judge, &settings, arm, budget, st, log)?;
             stage_png(&mut images, &format!("{}-{}spp", arm.name(), budget), &rgb)?;
             st.acc[bi * ctx.arms.len() + ai].add(&row);
