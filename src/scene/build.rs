@@ -9,10 +9,10 @@ use crate::animation::{
 };
 use crate::camera::Camera;
 use crate::error::{SceneError, SceneResult};
-use crate::geometry::{Cutouts, Geometry, STATIC_INSTANCE, TriangleAttributes, Triangles};
+use crate::geometry::{Cutouts, Geometry, STATIC_INSTANCE, Triangles};
 use crate::light::Lights;
 use crate::material::{ColorSource, Material, MaterialKind};
-use glam::{Mat4, Quat, Vec2, Vec3};
+use glam::{Mat4, Quat, Vec3};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -47,7 +47,7 @@ impl SceneDescription {
         };
         let tracks = self.add_meshes(&mut b, animation.as_ref())?;
         self.apply_material_overrides(&mut b)?;
-        self.add_light_quads(&mut b)?;
+        super::lights::add_light_quads(&self, &mut b)?;
         if b.tris.is_empty() {
             return Err(self.invalid("the scene has no geometry: add a [[mesh]] or a [[light]]"));
         }
@@ -160,75 +160,6 @@ impl SceneDescription {
             let m = &mut b.materials[idx as usize];
             apply_override(m, ov)
                 .map_err(|msg| self.invalid(format!("[materials.{name}]: {msg}")))?;
-        }
-        Ok(())
-    }
-
-    /// Adds every `[[light]]` quad as two emissive triangles with a material of its own.
-    fn add_light_quads(&self, b: &mut Builder) -> SceneResult<()> {
-        for (i, l) in self.lights.iter().enumerate() {
-            match l {
-                LightDesc::Quad {
-                    corner,
-                    edge1,
-                    edge2,
-                    radiance,
-                } => {
-                    let vals = corner.iter().chain(edge1).chain(edge2).chain(radiance);
-                    if vals.clone().any(|v| !v.is_finite()) {
-                        return Err(
-                            self.invalid(format!("[[light]] #{}: values must be finite", i + 1))
-                        );
-                    }
-                    if radiance.iter().any(|&v| v < 0.0) {
-                        return Err(
-                            self.invalid(format!("[[light]] #{}: radiance must be ≥ 0", i + 1))
-                        );
-                    }
-                    let (c, e1, e2) = (Vec3::from(*corner), Vec3::from(*edge1), Vec3::from(*edge2));
-                    let far = [c, c + e1, c + e2, c + e1 + e2]
-                        .iter()
-                        .any(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE);
-                    if far {
-                        return Err(self.invalid(format!(
-                            "[[light]] #{}: corners beyond ±{MAX_COORDINATE:e}, where f32 \
-                                 arithmetic overflows",
-                            i + 1
-                        )));
-                    }
-                    if e1.cross(e2).length() <= 0.0 {
-                        return Err(self.invalid(format!(
-                            "[[light]] #{}: edge1 and edge2 must span a non-zero area",
-                            i + 1
-                        )));
-                    }
-                    let mat = b.materials.len() as u32;
-                    b.materials.push(Material {
-                        name: format!("light#{}", i + 1),
-                        kind: MaterialKind::Diffuse,
-                        kd: ColorSource::Constant(Vec3::ZERO),
-                        ks: ColorSource::Constant(Vec3::ZERO),
-                        transmittance: Vec3::ONE,
-                        emission: Some(ColorSource::Constant(Vec3::from(*radiance))),
-                        cutout: None,
-                        bump: None,
-                    });
-                    for p in [[c, c + e1, c + e1 + e2], [c, c + e1 + e2, c + e2]] {
-                        b.tris.push(TriangleAttributes {
-                            p,
-                            n: None,
-                            uv: [Vec2::ZERO; 3],
-                            material: mat,
-                            light: u32::MAX,
-                            instance: STATIC_INSTANCE,
-                        });
-                    }
-                }
-                LightDesc::Environment { .. }
-                | LightDesc::Sun { .. }
-                | LightDesc::Point { .. }
-                | LightDesc::Spot { .. } => {}
-            }
         }
         Ok(())
     }

@@ -1,8 +1,13 @@
-//! The `[[light]]` entries that are not geometry: environment, sun, point and spot lights.
+//! Every `[[light]]` entry of a scene file, checked in one place: quads (added to the geometry
+//! as emissive triangles), the environment, suns, point and spot lights.
 
+use super::obj::Builder;
 use super::schema::{LightDesc, MAX_COORDINATE, MAX_LUMINANCE_CD_M2, SceneDescription};
 use crate::error::SceneResult;
+use crate::geometry::{STATIC_INSTANCE, TriangleAttributes};
 use crate::light::{Environment, OtherLights, PointLight, SUN_ANGULAR_DIAMETER_DEG, Sun};
+use crate::material::{ColorSource, Material, MaterialKind};
+use glam::Vec2;
 use glam::Vec3;
 use std::path::Path;
 
@@ -207,4 +212,71 @@ pub(super) fn other_lights(
         }
     }
     Ok(out)
+}
+
+/// Adds every `[[light]]` quad as two emissive triangles with a material of its own.
+pub(super) fn add_light_quads(desc: &SceneDescription, b: &mut Builder) -> SceneResult<()> {
+    for (i, l) in desc.lights.iter().enumerate() {
+        match l {
+            LightDesc::Quad {
+                corner,
+                edge1,
+                edge2,
+                radiance,
+            } => {
+                let vals = corner.iter().chain(edge1).chain(edge2).chain(radiance);
+                if vals.clone().any(|v| !v.is_finite()) {
+                    return Err(
+                        desc.invalid(format!("[[light]] #{}: values must be finite", i + 1))
+                    );
+                }
+                if radiance.iter().any(|&v| v < 0.0) {
+                    return Err(desc.invalid(format!("[[light]] #{}: radiance must be ≥ 0", i + 1)));
+                }
+                let (c, e1, e2) = (Vec3::from(*corner), Vec3::from(*edge1), Vec3::from(*edge2));
+                let far = [c, c + e1, c + e2, c + e1 + e2]
+                    .iter()
+                    .any(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE);
+                if far {
+                    return Err(desc.invalid(format!(
+                        "[[light]] #{}: corners beyond ±{MAX_COORDINATE:e}, where f32 \
+                             arithmetic overflows",
+                        i + 1
+                    )));
+                }
+                if e1.cross(e2).length() <= 0.0 {
+                    return Err(desc.invalid(format!(
+                        "[[light]] #{}: edge1 and edge2 must span a non-zero area",
+                        i + 1
+                    )));
+                }
+                let mat = b.materials.len() as u32;
+                b.materials.push(Material {
+                    name: format!("light#{}", i + 1),
+                    kind: MaterialKind::Diffuse,
+                    kd: ColorSource::Constant(Vec3::ZERO),
+                    ks: ColorSource::Constant(Vec3::ZERO),
+                    transmittance: Vec3::ONE,
+                    emission: Some(ColorSource::Constant(Vec3::from(*radiance))),
+                    cutout: None,
+                    bump: None,
+                });
+                for p in [[c, c + e1, c + e1 + e2], [c, c + e1 + e2, c + e2]] {
+                    b.tris.push(TriangleAttributes {
+                        p,
+                        n: None,
+                        uv: [Vec2::ZERO; 3],
+                        material: mat,
+                        light: u32::MAX,
+                        instance: STATIC_INSTANCE,
+                    });
+                }
+            }
+            LightDesc::Environment { .. }
+            | LightDesc::Sun { .. }
+            | LightDesc::Point { .. }
+            | LightDesc::Spot { .. } => {}
+        }
+    }
+    Ok(())
 }
