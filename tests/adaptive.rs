@@ -613,7 +613,7 @@ fn converged_counts_follow_the_models_own_oracle() {
             got.push(r.film.pixels[i].n as f32);
         }
     }
-    let rho = aleph::speedup::rank_correlation(&need, &got);
+    let rho = aleph_speedup::rank_correlation(&need, &got);
     eprintln!(
         "oracle against converged counts: Spearman {rho:.3} over {} pixels",
         need.len()

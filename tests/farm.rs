@@ -357,7 +357,7 @@ fn tile_split_cost() {
     let s = AdaptiveSettings::default();
     let reference = reference.mean_rgb();
     let frozen = aleph::display::FrozenToneMap::new(&reference, w, h, &s.tone).unwrap();
-    let judge = aleph::speedup::Judge::new(reference, w, h, frozen, s.tone.view).unwrap();
+    let judge = aleph_speedup::Judge::new(reference, w, h, frozen, s.tone.view).unwrap();
     println!("spp | split | margin | samples / single | FLIP mean | FLIP p99");
     let vis = match std::env::var("ALEPH_TILE_VISIBILITY").as_deref() {
         Ok("scene") => aleph::adaptive::Visibility::Scene,

@@ -6,9 +6,7 @@ use super::{parse_resolution, with_threads};
 use aleph::adaptive::Criterion;
 use aleph::output::{AtomicOutputs, write_png};
 use aleph::scene::SceneDescription;
-use aleph::speedup::{
-    Arm, LATITUDE_EV, METRICS, Row, Scores, Sweep, SweepSpec, samples_for, sweep,
-};
+use aleph_speedup::{Arm, LATITUDE_EV, METRICS, Row, Scores, Sweep, SweepSpec, samples_for, sweep};
 use anyhow::bail;
 use clap::Args;
 use perception::tmo::Operator;
@@ -249,7 +247,7 @@ fn report(sw: &Sweep, args: &SpeedupArgs, scene: &str) -> String {
         let _ = writeln!(
             s,
             "\nIn wall time: each pixel's cost per sample timed over {} samples, and the allocation that reaches uniform's FLIP mean in the least time, n_i ∝ (a_i / c_i)^(1/(1+β)) (Cochran 1977, §5.5). Where samples cost alike it equals the ceiling in samples; where some pixels' samples are cheap (a directly seen sky), uniform spends little time on them and the ceiling in time is lower.",
-            aleph::speedup::COST_SPP
+            aleph_speedup::COST_SPP
         );
     }
     if !sw.oracle.is_empty() {
@@ -492,8 +490,20 @@ where
     root.present().map_err(|e| e.to_string())
 }
 
+/// Registers the bundled DejaVu Sans as plotters' "sans-serif" for the charts (once).
+fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            aleph::display::LABEL_FONT,
+        );
+    });
+}
+
 fn plot_png(rows: &[Row], floor: &Scores) -> anyhow::Result<(Vec<u8>, u32, u32)> {
-    aleph::display::register_font();
+    register_font();
     let (w, h) = (1200u32, 900u32);
     let mut buf = vec![255u8; (w * h * 3) as usize];
     draw(
@@ -506,7 +516,7 @@ fn plot_png(rows: &[Row], floor: &Scores) -> anyhow::Result<(Vec<u8>, u32, u32)>
 }
 
 fn plot_svg(rows: &[Row], floor: &Scores) -> anyhow::Result<String> {
-    aleph::display::register_font();
+    register_font();
     let mut s = String::new();
     draw(
         SVGBackend::with_string(&mut s, (1200, 900)).into_drawing_area(),

@@ -22,8 +22,8 @@ pub use sweep::{
     frame_list, frames_csv_header, grade_dir, image_path, reference_key, sweep,
 };
 
-use crate::display::FrozenToneMap;
-use crate::output::encode_srgb8;
+use aleph::display::FrozenToneMap;
+use aleph::output::encode_srgb8;
 use perception::metric::DiffMetric;
 use perception::threshold::ThresholdParams;
 use perception::viewing::ViewingConditions;
@@ -209,7 +209,7 @@ impl Judge {
     /// FLIP mean and 5×5-pooled p99 of a FLIP map; returns the pooled map too.
     fn flip_stats(&self, fmap: &[f32]) -> (f64, f64, Vec<f32>) {
         let mean = fmap.iter().map(|&v| v as f64).sum::<f64>() / fmap.len() as f64;
-        let filtered = crate::imaging::box_mean(fmap, self.width, self.height, 2);
+        let filtered = aleph::imaging::box_mean(fmap, self.width, self.height, 2);
         (mean, quantile(&filtered, 0.99), filtered)
     }
 
@@ -299,7 +299,7 @@ pub struct Ceiling {
 /// The ceiling speedup in wall time at equal FLIP mean: uniform's time at budget `n` over the
 /// least time any allocation needs to reach uniform's mean error, with pixel i's error
 /// a_i n_i^−β (`beta`, `a`, as [`flip_coefficients`] fits) and its cost c_i seconds per
-/// sample (`cost`, e.g. [`crate::render::pixel_costs`]). Minimising Σ c_i n_i at
+/// sample (`cost`, e.g. [`aleph::render::pixel_costs`]). Minimising Σ c_i n_i at
 /// Σ a_i n_i^−β fixed gives n_i = k (a_i / c_i)^(1/(1+β)) (the optimum allocation with
 /// variable cost per unit of stratified sampling, Cochran 1977, *Sampling Techniques*, §5.5,
 /// with error falling as n^−β instead of n^−1), and k follows in closed form: the error is

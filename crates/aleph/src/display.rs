@@ -7,9 +7,7 @@ use perception::photometry::luminance_image;
 use perception::tmo::pattanaik00::AdaptationState;
 use perception::tmo::{Display, Operator};
 use perception::viewing::ViewingConditions;
-use plotters::prelude::*;
 use rayon::prelude::*;
-use std::sync::Once;
 
 /// How an HDR image becomes a display image.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -238,16 +236,44 @@ fn ptyg_display(display: &Display) -> perception::tmo::pattanaik00::Pattanaik00 
     p
 }
 
-/// Registers the bundled DejaVu Sans as plotters' "sans-serif" (once).
-pub fn register_font() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            include_bytes!("../assets/fonts/DejaVuSans.ttf"),
-        );
-    });
+/// The bundled DejaVu Sans (Bitstream Vera license, `assets/fonts/LICENSE.md`), for labels.
+pub const LABEL_FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+
+/// Draws `text` in DejaVu Sans at `font_px` pixels per em onto 8-bit RGB `buf` (`w` wide) with
+/// its top-left near (`x`, `y`), white, blended by the glyphs' coverage (ab_glyph's
+/// rasterizer); pixels outside the image are skipped.
+fn draw_label(buf: &mut [u8], w: usize, (x, y): (i32, i32), text: &str, font_px: f32) {
+    use ab_glyph::{Font, FontRef, ScaleFont};
+    let Ok(font) = FontRef::try_from_slice(LABEL_FONT) else {
+        return;
+    };
+    let font = font.as_scaled(font_px);
+    let h = buf.len() / (3 * w.max(1));
+    let baseline = y as f32 + font.ascent();
+    let mut pen = x as f32;
+    let mut prev = None;
+    for c in text.chars() {
+        let id = font.glyph_id(c);
+        if let Some(p) = prev {
+            pen += font.kern(p, id);
+        }
+        prev = Some(id);
+        let glyph = id.with_scale_and_position(font_px, ab_glyph::point(pen, baseline));
+        if let Some(g) = font.outline_glyph(glyph) {
+            let r = g.px_bounds();
+            g.draw(|gx, gy, a| {
+                let (px, py) = (r.min.x as i64 + gx as i64, r.min.y as i64 + gy as i64);
+                if px < 0 || py < 0 || px as usize >= w || py as usize >= h {
+                    return;
+                }
+                let i = 3 * (py as usize * w + px as usize);
+                for v in &mut buf[i..i + 3] {
+                    *v = (*v as f32 + (255.0 - *v as f32) * a.clamp(0.0, 1.0)).round() as u8;
+                }
+            });
+        }
+        pen += font.h_advance(id);
+    }
 }
 
 /// A labelled grid of every operator's result (3 columns), each tile at most 480 pixels wide.
@@ -301,28 +327,23 @@ fn labelled_grid(
     cols: usize,
     font_px: u32,
 ) -> (Vec<u8>, u32, u32) {
-    register_font();
     let label_h = font_px as usize + 11;
     let rows = tiles.len().div_ceil(cols).max(1);
     let (sw, sh) = (cols * tw, rows * (th + label_h));
-    let mut buf = vec![0u8; 3 * sw * sh];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (sw as u32, sh as u32)).into_drawing_area();
-        root.fill(&RGBColor(24, 24, 24)).ok();
-        for (i, (label, tile)) in tiles.into_iter().enumerate() {
-            let (cx, cy) = ((i % cols) * tw, (i / cols) * (th + label_h));
-            if let Some(el) = BitMapElement::<(i32, i32)>::with_owned_buffer(
-                (cx as i32, (cy + label_h) as i32),
-                (tw as u32, th as u32),
-                tile,
-            ) {
-                root.draw(&el).ok();
-            }
-            let style = TextStyle::from(("sans-serif", font_px).into_font()).color(&WHITE);
-            root.draw_text(&label, &style, (cx as i32 + 7, cy as i32 + 4))
-                .ok();
+    let mut buf: Vec<u8> = [24u8, 24, 24].repeat(sw * sh);
+    for (i, (label, tile)) in tiles.into_iter().enumerate() {
+        let (cx, cy) = ((i % cols) * tw, (i / cols) * (th + label_h));
+        for (row, src) in tile.chunks_exact(3 * tw).take(th).enumerate() {
+            let at = 3 * ((cy + label_h + row) * sw + cx);
+            buf[at..at + 3 * tw].copy_from_slice(src);
         }
-        root.present().ok();
+        draw_label(
+            &mut buf,
+            sw,
+            (cx as i32 + 7, cy as i32 + 4),
+            &label,
+            font_px as f32,
+        );
     }
     (buf, sw as u32, sh as u32)
 }

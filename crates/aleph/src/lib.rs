@@ -45,6 +45,5 @@ pub mod sampler;
 pub mod sampling;
 pub mod scene;
 pub mod sequence;
-pub mod speedup;
 pub mod texture;
 pub mod velocity;

@@ -4,15 +4,15 @@ use super::{
     Ceiling, GRADES_EV, Judge, Scores, ceiling, flip_coefficients, oracle_allocations,
     rank_correlation, relative_sample_cost,
 };
-use crate::adaptive::{AdaptiveSettings, Criterion, render_adaptive};
-use crate::display::FrozenToneMap;
-use crate::film::Film;
-use crate::imaging::false_colour;
-use crate::integrator::Strategy;
-use crate::output::{AtomicOutputs, ChannelData, OutputError, write_exr, write_png};
-use crate::render::{pixel_costs, render_uniform};
-use crate::scene::{Scene, SceneDescription};
-use crate::sequence::Sequence;
+use aleph::adaptive::{AdaptiveSettings, Criterion, render_adaptive};
+use aleph::display::FrozenToneMap;
+use aleph::film::Film;
+use aleph::imaging::false_colour;
+use aleph::integrator::Strategy;
+use aleph::output::{AtomicOutputs, ChannelData, OutputError, write_exr, write_png};
+use aleph::render::{pixel_costs, render_uniform};
+use aleph::scene::{Scene, SceneDescription};
+use aleph::sequence::Sequence;
 use perception::tmo::Operator;
 use perception::viewing::ViewingConditions;
 use std::fmt::Write as _;
@@ -182,7 +182,7 @@ struct Reference {
 }
 
 fn read_reference(path: &Path, n: usize) -> Option<Reference> {
-    let ch = crate::imageio::read_exr_channels(path).ok()?;
+    let ch = aleph::imageio::read_exr_channels(path).ok()?;
     let get = |p: &str| -> Option<Vec<f32>> {
         let (r, g, b) = (
             ch.get(&format!("{p}R"))?,
@@ -398,13 +398,13 @@ pub const COST_SPP: u32 = 16;
 pub enum SpeedupError {
     /// The scene failed to load or a frame is invalid.
     #[error(transparent)]
-    Scene(#[from] crate::error::SceneError),
+    Scene(#[from] aleph::error::SceneError),
     /// A frame range that does not fit the scene.
     #[error("{0}")]
     Frames(String),
     /// A render failed or its settings were refused.
     #[error(transparent)]
-    Adaptive(#[from] crate::adaptive::AdaptiveError),
+    Adaptive(#[from] aleph::adaptive::AdaptiveError),
     /// A perception model failed.
     #[error(transparent)]
     Perception(#[from] perception::PerceptionError),
@@ -517,7 +517,7 @@ pub fn sweep(
             // correlate at 0.99 (a 5 × 5 mean: 0.61).
             let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
             let raw = pixel_costs(&scene, Strategy::Mis, COST_SPP);
-            st.cost = Some(crate::imaging::median_filter(&raw, w, h, 2));
+            st.cost = Some(aleph::imaging::median_filter(&raw, w, h, 2));
             log(&format!(
                 "pixel costs: {COST_SPP} spp per pixel timed in {:.2} s",
                 t.elapsed().as_secs_f64()
@@ -659,7 +659,7 @@ struct FrameCtx<'a> {
     scene: &'a Scene,
     frame: Option<i64>,
     first: bool,
-    tone: crate::display::ToneMapSettings,
+    tone: aleph::display::ToneMapSettings,
     arms: &'a [Arm],
     dir: &'a Path,
 }
