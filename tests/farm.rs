@@ -495,3 +495,74 @@ fn row_tiles_assemble_into_the_frame() {
     );
     assert!(String::from_utf8_lossy(&r.stderr).contains("--part I/K"));
 }
+
+/// Values written into a batch script follow Slurm's grammar: a newline or a shell command in
+/// any option is refused before anything is written (issue 35, class 3), and good values pass.
+#[test]
+fn farm_options_cannot_inject_lines_into_the_batch_script() {
+    let dir = tempdir();
+    let d = dir.path();
+    let out = d.join("f");
+    let o = out.to_str().unwrap();
+    let still = repo("scenes/cornell-box/scene.toml");
+    let still = still.to_str().unwrap();
+    let base = ["farm", "slurm", still, "-o", o];
+    for (extra, flag) in [
+        (["--partition", "batch\nrm -rf /tmp/x"], "--partition"),
+        (["--partition", "batch;rm"], "--partition"),
+        (["--mem", "4G\n#SBATCH --wrap=x"], "--mem"),
+        (["--mem", "lots"], "--mem"),
+        (["--time-limit", "1:00:00\nrm"], "--time-limit"),
+        (["--time-limit", "an hour"], "--time-limit"),
+        (["--cpus-per-task", "0"], "--cpus-per-task"),
+        (["--sbatch", "--account=lab\nrm -rf /"], "--sbatch"),
+        (["--sbatch", "account=lab"], "--sbatch"),
+    ] {
+        let args: Vec<&str> = base.iter().copied().chain(extra).collect();
+        let r = aleph(&args, d);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{extra:?}: {err}");
+        assert!(err.contains(flag), "{extra:?}: {err}");
+        assert!(!out.join("farm.toml").exists() && !out.join("render.sbatch").exists());
+    }
+    let bad_dir = d.join("f\nrm");
+    let r = aleph(
+        &["farm", "slurm", still, "-o", bad_dir.to_str().unwrap()],
+        d,
+    );
+    assert_eq!(r.status.code(), Some(2));
+    assert!(!bad_dir.exists());
+    // Good values of every form are written as given, one #SBATCH line each.
+    let args = [
+        "--partition",
+        "batch,gpu-a.1",
+        "--mem",
+        "4096M",
+        "--time-limit",
+        "1-02:03:04",
+        "--cpus-per-task",
+        "2",
+        "--sbatch=--account=lab",
+    ];
+    let all: Vec<&str> = base.iter().copied().chain(args).collect();
+    let r = aleph(&all, d);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let script = std::fs::read_to_string(out.join("render.sbatch")).unwrap();
+    for line in [
+        "#SBATCH --partition=batch,gpu-a.1",
+        "#SBATCH --mem=4096M",
+        "#SBATCH --time=1-02:03:04",
+        "#SBATCH --cpus-per-task=2",
+        "#SBATCH --account=lab",
+    ] {
+        assert!(
+            script.lines().any(|l| l == line),
+            "{line} missing:\n{script}"
+        );
+    }
+    assert!(
+        script
+            .lines()
+            .all(|l| l.starts_with('#') || l.starts_with("exec ") || l.is_empty())
+    );
+}

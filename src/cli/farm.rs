@@ -304,6 +304,83 @@ fn check_render(m: &Manifest) -> anyhow::Result<()> {
     }
 }
 
+/// Checks every value `farm slurm` writes into a batch script against Slurm's own grammar
+/// (sbatch(1)), so that no option can add a line or a command to the script a cluster runs:
+/// partitions are names (letters, digits, `_`, `-`, `.`), comma-separated; `--mem` a whole
+/// number with an optional unit K, M, G or T; `--time-limit` one of sbatch's forms (`M`, `M:S`,
+/// `H:M:S`, `D-H`, `D-H:M`, `D-H:M:S`, `UNLIMITED`); `--cpus-per-task` at least 1; each
+/// `--sbatch` an option (`-x…` or `--name[=value]`) without blanks or control characters.
+fn check_slurm_values(a: &SlurmArgs) -> anyhow::Result<()> {
+    let name_ok = |s: &str| {
+        !s.is_empty()
+            && s.chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+    };
+    if let Some(p) = &a.partition
+        && !p.split(',').all(name_ok)
+    {
+        bail!(
+            "--partition {p:?}: expected partition names (letters, digits, _ - .), comma-separated"
+        );
+    }
+    if let Some(m) = &a.mem {
+        let digits = m.trim_end_matches(['K', 'M', 'G', 'T', 'k', 'm', 'g', 't']);
+        let unit_len = m.len() - digits.len();
+        if digits.is_empty() || !digits.chars().all(|c| c.is_ascii_digit()) || unit_len > 1 {
+            bail!(
+                "--mem {m:?}: expected a whole number with an optional unit K, M, G or T (e.g. 4G)"
+            );
+        }
+    }
+    if let Some(t) = &a.time_limit
+        && !slurm_time_ok(t)
+    {
+        bail!(
+            "--time-limit {t:?}: expected one of sbatch's forms: MINUTES, MINUTES:SECONDS, \
+             HOURS:MINUTES:SECONDS, DAYS-HOURS, DAYS-HOURS:MINUTES, DAYS-HOURS:MINUTES:SECONDS \
+             or UNLIMITED"
+        );
+    }
+    if a.cpus_per_task == Some(0) {
+        bail!("--cpus-per-task must be at least 1");
+    }
+    for o in &a.sbatch {
+        let option = o.starts_with('-') && o.len() > 1;
+        if !option || o.chars().any(|c| c.is_whitespace() || c.is_control()) {
+            bail!(
+                "--sbatch {o:?}: expected one sbatch option such as --account=lab, without \
+                 blanks or control characters"
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Whether `t` is a time limit in one of sbatch's forms.
+fn slurm_time_ok(t: &str) -> bool {
+    if t.eq_ignore_ascii_case("unlimited") || t.eq_ignore_ascii_case("infinite") {
+        return true;
+    }
+    let num = |s: &str| !s.is_empty() && s.len() <= 9 && s.chars().all(|c| c.is_ascii_digit());
+    let (days, rest) = match t.split_once('-') {
+        Some((d, r)) => (Some(d), r),
+        None => (None, t),
+    };
+    let parts: Vec<&str> = rest.split(':').collect();
+    days.is_none_or(num) && parts.len() <= 3 && parts.iter().all(|p| num(p))
+}
+
+/// A job name from the output stem: letters, digits, `_`, `-` and `.` kept, anything else `_`
+/// (a scene file's name may hold characters a batch script must not).
+fn job_name(stem: &str) -> String {
+    stem.chars()
+        .map(|c| match c {
+            c if c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.') => c,
+            _ => '_',
+        })
+        .collect()
+}
+
 /// Shell-quotes a word for a batch script.
 fn sh(word: &str) -> String {
     format!("'{}'", word.replace('\'', r"'\''"))
@@ -329,9 +406,9 @@ fn batch_scripts(m: &Manifest, dir: &Path, a: &SlurmArgs, n_tasks: usize) -> (St
         let mut s = "#!/bin/bash\n".to_string();
         s += &format!(
             "# Written by `aleph farm slurm` for {}.\n",
-            m.job.scene.path.display()
+            m.job.scene.path.display().to_string().escape_debug()
         );
-        s += &format!("#SBATCH --job-name=aleph-{name}-{}\n", m.stem);
+        s += &format!("#SBATCH --job-name=aleph-{name}-{}\n", job_name(&m.stem));
         for o in extra.iter().chain(&common) {
             s += &format!("#SBATCH {o}\n");
         }
@@ -369,12 +446,21 @@ fn batch_scripts(m: &Manifest, dir: &Path, a: &SlurmArgs, n_tasks: usize) -> (St
 }
 
 fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
+    check_slurm_values(&a)?;
     if a.split_samples == 0 || a.split_tiles == 0 {
         bail!("--split-samples and --split-tiles must be at least 1");
     }
     let absolute = |p: &Path| std::path::absolute(p).with_context(|| p.display().to_string());
     let scene = absolute(&a.scene.clone().unwrap_or_else(default_scene))?;
     let dir = absolute(&a.output)?;
+    for (what, p) in [("-o", &dir), ("the scene", &scene)] {
+        if p.to_string_lossy().chars().any(char::is_control) {
+            bail!(
+                "{what} {:?}: a path with control characters cannot go into a batch script",
+                p
+            );
+        }
+    }
     let stem = scene
         .file_stem()
         .filter(|s| *s != "scene")

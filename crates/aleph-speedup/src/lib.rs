@@ -1,3 +1,4 @@
+#![deny(missing_docs)]
 //! Equal-quality benchmarking of the samplers against a high-spp reference
 //!
 //! Every image is judged against the reference on the *displayed* images (one tone curve,
