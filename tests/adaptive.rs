@@ -758,3 +758,42 @@ file = "env.hdr"
     );
     assert!((r.mean_spp() - 128.0).abs() < 0.5, "{}", r.mean_spp());
 }
+
+/// A render never takes fewer samples than asked without saying so (issue 35, class 5): a
+/// uniform budget above --max-spp is rendered in full, in one piece and in parts, and an
+/// adaptive budget the cap could not spend is refused, naming both flags.
+#[test]
+fn budgets_above_the_cap_are_rendered_or_refused_never_cut() {
+    let dir = tempdir();
+    let d = dir.path();
+    let scene = repo("scenes/cornell-box/scene.toml");
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+            .arg("render")
+            .arg(&scene)
+            .args(["--resolution", "4x3", "--max-depth", "2", "-o"])
+            .arg(d.join("x"))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let o = run(&["--sampler", "uniform", "--spp", "5000"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && out.contains("5000.0 spp mean"),
+        "{out}"
+    );
+    let o = run(&["--sampler", "uniform", "--spp", "8192", "--part", "1/2"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && out.contains("samples 0..4096 of 8192"),
+        "{out}"
+    );
+    let o = run(&["--spp", "5000"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--spp 5000") && err.contains("--max-spp 4096"),
+        "{err}"
+    );
+}

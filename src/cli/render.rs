@@ -78,7 +78,8 @@ pub struct SamplingArgs {
         help_heading = "Adaptive sampling"
     )]
     pub min_spp: u32,
-    /// Cap on any one pixel's samples.
+    /// Cap on any one pixel's samples of the adaptive samplers (a uniform render takes its
+    /// --spp everywhere; an adaptive --spp above the cap is refused).
     #[arg(
         long,
         value_name = "N",

@@ -318,14 +318,19 @@ impl AdaptiveSettings {
             .filter(|_| self.criterion == Criterion::Perceptual)
     }
 
-    /// Samples per pixel of the uniform sampler: the budget rounded (at least 1), else
-    /// `uniform_spp`, capped at `max_spp`.
+    /// Samples per pixel of a uniform render: the budget rounded (at least 1), else
+    /// `uniform_spp`. The uniform rule takes it whatever `max_spp` says (the cap is the adaptive
+    /// rules'); an adaptive rule rendering a small budget uniformly is held under `max_spp` by
+    /// [`AdaptiveSettings::validate`].
     pub fn uniform_total_spp(&self) -> u32 {
-        match self.budget_spp {
-            Some(b) => b.round().max(1.0) as u32,
+        let n = match self.budget_spp {
+            Some(b) => b.round().clamp(1.0, u32::MAX as f64) as u32,
             None => self.uniform_spp,
+        };
+        match self.criterion {
+            Criterion::Uniform => n,
+            _ => n.min(self.max_spp),
         }
-        .min(self.max_spp)
     }
 }
 
@@ -366,6 +371,16 @@ impl AdaptiveSettings {
             && !(b.is_finite() && b >= 1.0)
         {
             return bad(format!("budget_spp (--spp) must be at least 1, got {b}"));
+        }
+        if let Some(b) = self.budget_spp
+            && self.criterion != Criterion::Uniform
+            && b > self.max_spp as f64
+        {
+            return bad(format!(
+                "budget_spp (--spp {b}) is more than max_spp (--max-spp {}), the most any one \
+                 pixel takes: the budget could not be spent; raise --max-spp",
+                self.max_spp
+            ));
         }
         if !(self.steer_from_spp.is_finite() && self.steer_from_spp >= 0.0) {
             return bad(format!(
