@@ -469,3 +469,71 @@ fn one_failed_output_writes_none_of_the_others() {
     assert_mentions(&e, &["sheet.png"]);
     assert!(!main.exists());
 }
+
+/// Outputs land only where asked and never replace an input (issue 35, class 6): `-o .` and
+/// `-o sub/` name no file, a merge may not overwrite its own parts, and a farm manifest's stem
+/// may not lead out of the farm folder.
+#[test]
+fn outputs_never_land_elsewhere_or_replace_inputs() {
+    let dir = crate::util::tempdir();
+    let d = dir.path();
+    std::fs::create_dir(d.join("sub")).unwrap();
+    let scene = crate::util::repo("scenes/cornell-box/scene.toml");
+    let scene = scene.to_str().unwrap();
+    let small = ["--resolution", "4x3", "--sampler", "uniform", "--spp", "2"];
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_aleph"))
+            .current_dir(d)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    for o in [".", "sub/", "sub/."] {
+        let mut args = vec!["render", scene, "-o", o];
+        args.extend(small);
+        let r = run(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "-o {o}: {err}");
+        assert!(err.contains("needs a file name"), "-o {o}: {err}");
+    }
+    let listing = |p: &Path| std::fs::read_dir(p).unwrap().count();
+    assert_eq!(listing(d), 1, "something was written beside sub/");
+    assert_eq!(listing(&d.join("sub")), 0);
+    // Two parts, then a merge whose output would be the first part's file.
+    for i in ["1/2", "2/2"] {
+        let mut args = vec!["render", scene, "-o", "p"];
+        args.extend(small);
+        args.extend(["--part", i]);
+        assert!(run(&args).status.success());
+    }
+    let before = std::fs::read(d.join("p.part-1-of-2.exr")).unwrap();
+    let r = run(&[
+        "merge",
+        "p.part-1-of-2.exr",
+        "p.part-2-of-2.exr",
+        "-o",
+        "p.part-1-of-2",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{err}");
+    assert!(err.contains("would replace the input part"), "{err}");
+    assert_eq!(std::fs::read(d.join("p.part-1-of-2.exr")).unwrap(), before);
+    // A farm manifest edited to write outside its folder.
+    let farm = d.join("farm");
+    let mut args = vec!["farm", "slurm", scene, "-o", "farm", "--"];
+    args.extend(small);
+    assert!(run(&args).status.success());
+    let manifest = farm.join("farm.toml");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let edited = text.replace("stem = \"cornell-box\"", "stem = \"../../x\"");
+    assert_ne!(text, edited);
+    std::fs::write(&manifest, edited).unwrap();
+    let r = run(&["farm", "task", "farm", "--index", "0"]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("farm.toml") && err.contains("inside the farm folder"),
+        "{err}"
+    );
+    assert!(!d.join("x.exr").exists() && !d.parent().unwrap().join("x.exr").exists());
+}

@@ -167,7 +167,20 @@ impl Manifest {
         let path = dir.join("farm.toml");
         let text = std::fs::read_to_string(&path)
             .with_context(|| format!("{}: cannot read the farm manifest", path.display()))?;
-        toml::from_str(&text).with_context(|| format!("{}: not a farm manifest", path.display()))
+        let m: Manifest = toml::from_str(&text)
+            .with_context(|| format!("{}: not a farm manifest", path.display()))?;
+        // The outputs stay inside the farm folder: the stem is a plain file name.
+        let plain = Path::new(&m.stem).components().count() == 1
+            && !matches!(m.stem.as_str(), "" | "." | "..")
+            && !m.stem.contains(std::path::is_separator);
+        if !plain {
+            bail!(
+                "{}: stem {:?} must be a file name inside the farm folder",
+                path.display(),
+                m.stem
+            );
+        }
+        Ok(m)
     }
 
     /// The stem of a frame's outputs (`DIR/STEM` or `DIR/STEM.NNNN`).

@@ -36,6 +36,47 @@ pub struct MergeReport {
     pub read: Duration,
 }
 
+/// Refuses a merge whose outputs (`STEM.exr`, `STEM.png`, and a frame's `STEM.NNNN.*`) would
+/// replace one of its input parts.
+fn check_outputs_are_not_inputs(parts: &[PathBuf], stem: &Path) -> Result<(), JobError> {
+    let canon = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    let inputs: Vec<PathBuf> = parts.iter().map(|p| canon(p)).collect();
+    let dir = stem.parent().map(canon).unwrap_or_default();
+    let name = stem
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    for (part, input) in parts.iter().zip(&inputs) {
+        let same_dir = input.parent() == Some(dir.as_path());
+        let file = input
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default();
+        // STEM.exr / STEM.png, or a frame's STEM.NNNN.exr / .png.
+        let written = file
+            .strip_prefix(&format!("{name}."))
+            .map(|rest| {
+                let rest = rest.split_once('.').map_or(rest, |(n, ext)| {
+                    if n.chars().all(|c| c.is_ascii_digit() || c == '-') {
+                        ext
+                    } else {
+                        rest
+                    }
+                });
+                rest == "exr" || rest == "png"
+            })
+            .unwrap_or(false);
+        if same_dir && written {
+            return Err(JobError::Invalid(format!(
+                "-o {}: the merged files would replace the input part {}",
+                stem.display(),
+                part.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Parses two part records and says how they differ, if they do.
 fn same_render(a: &str, b: &str) -> Result<(), String> {
     let parse = |t: &str| RenderJob::from_toml(t, Path::new("")).map_err(|e| e.to_string());
@@ -64,6 +105,8 @@ fn same_render(a: &str, b: &str) -> Result<(), String> {
 /// parts whose samples disagree with their record; otherwise as [`super::run`].
 pub fn merge(parts: &[PathBuf], stem: &Path) -> Result<MergeReport, JobError> {
     let start = Instant::now();
+    super::check_stem(stem)?;
+    check_outputs_are_not_inputs(parts, stem)?;
     let merged = merge_parts_with(parts, &same_render)?;
     let first = &parts[0];
     let job = RenderJob::from_toml(&merged.recipe, first)?;

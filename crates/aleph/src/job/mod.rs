@@ -375,6 +375,9 @@ impl RenderJob {
                 return bad("display.exposure_ev (--exposure) and display.operator (--tonemap) exclude each other".into());
             }
         }
+        if let Some(stem) = &self.output.stem {
+            check_stem(stem)?;
+        }
         if let Some([a, b]) = self.frames
             && a > b
         {
@@ -549,6 +552,27 @@ impl RenderJob {
             ..self.clone()
         }
     }
+}
+
+/// Refuses an output stem that names no file of its own: empty, `.` or `..`, or ending in a
+/// path separator (`-o .` would write the hidden `..exr`, `-o sub/` writes `sub/.exr`).
+///
+/// # Errors
+/// [`JobError::Invalid`] naming the stem.
+pub fn check_stem(stem: &Path) -> Result<(), JobError> {
+    let text = stem.as_os_str().to_string_lossy();
+    let dot = text == "." || text.ends_with("/.");
+    if text.is_empty()
+        || text.ends_with(std::path::is_separator)
+        || dot
+        || stem.file_name().is_none()
+    {
+        return Err(JobError::Invalid(format!(
+            "-o {text:?}: the output needs a file name (OUT writes OUT.exr and OUT.png), not a \
+             directory"
+        )));
+    }
+    Ok(())
 }
 
 /// A scene's name for default outputs: the file's stem, or its folder's name for `scene.toml`.
