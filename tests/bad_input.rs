@@ -537,3 +537,55 @@ fn outputs_never_land_elsewhere_or_replace_inputs() {
     );
     assert!(!d.join("x.exr").exists() && !d.parent().unwrap().join("x.exr").exists());
 }
+
+/// A black image is a valid render (issue 35, class 2): a camera facing away from every light
+/// writes its EXR and a black PNG with one warning that names the scene, under every operator,
+/// and black sample parts merge.
+#[test]
+fn a_black_render_is_written_with_a_warning() {
+    let dir = crate::util::tempdir();
+    let d = dir.path();
+    for f in ["CornellBox-Original.obj", "CornellBox-Original.mtl"] {
+        std::fs::copy(crate::util::repo("scenes/cornell-box").join(f), d.join(f)).unwrap();
+    }
+    let text = std::fs::read_to_string(crate::util::repo("scenes/cornell-box/scene.toml"))
+        .unwrap()
+        .replace(
+            "look_at = [0.0, 0.989, 0.0]",
+            "look_at = [0.0, 0.989, 10.0]",
+        );
+    assert!(text.contains("10.0]"));
+    std::fs::write(d.join("scene.toml"), text).unwrap();
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_aleph"))
+            .current_dir(d)
+            .args(["render", "scene.toml", "--resolution", "8x6", "--spp", "4"])
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    for op in ["reinhard", "tr", "fpsg", "wrp", "ptyg", "exposure"] {
+        let r = run(&["--tonemap", op, "-o", op]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(r.status.success(), "{op}: {err}");
+        assert_eq!(err.matches("the image is black").count(), 1, "{op}: {err}");
+        assert!(err.contains("scene.toml"), "{err}");
+        let png = image::open(d.join(format!("{op}.png"))).unwrap().to_rgb8();
+        assert!(png.as_raw().iter().all(|&v| v == 0), "{op}: not black");
+        assert!(d.join(format!("{op}.exr")).exists());
+    }
+    for i in ["1/2", "2/2"] {
+        assert!(
+            run(&["--sampler", "uniform", "--part", i, "-o", "p"])
+                .status
+                .success()
+        );
+    }
+    let r = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .current_dir(d)
+        .args(["merge", "p.part-1-of-2.exr", "p.part-2-of-2.exr", "-o", "m"])
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(d.join("m.png").exists());
+}

@@ -436,6 +436,8 @@ pub(super) fn run_job(job: &RenderJob) -> anyhow::Result<ExitCode> {
 /// Progress bars (a sequence's frames, the current frame's passes) and summary lines.
 struct CliObserver {
     multi: MultiProgress,
+    /// Whether the black-image warning was given (once per render).
+    warned_black: std::sync::atomic::AtomicBool,
     sequence: std::sync::Mutex<Option<ProgressBar>>,
     frame: ProgressBar,
     criterion: &'static str,
@@ -449,6 +451,7 @@ impl CliObserver {
         frame.enable_steady_tick(Duration::from_millis(200));
         CliObserver {
             multi,
+            warned_black: Default::default(),
             sequence: std::sync::Mutex::new(None),
             frame,
             criterion,
@@ -492,6 +495,30 @@ impl Observer for CliObserver {
         let stem = d.stem.map(Path::to_path_buf).unwrap_or_default();
         let line = summary_line(d.scene, d.settings, d.result, &stem, d.look);
         self.multi.suspend(|| println!("{line}"));
+        let black = d
+            .result
+            .film
+            .pixels
+            .iter()
+            .all(|p| p.sum() == glam::DVec3::ZERO);
+        if black
+            && !self
+                .warned_black
+                .swap(true, std::sync::atomic::Ordering::Relaxed)
+        {
+            let frame = d
+                .scene
+                .animation
+                .map(|_| format!(" frame {}", d.scene.frame.index));
+            self.multi.suspend(|| {
+                eprintln!(
+                    "warning: {}{}: the image is black (no light reaches the camera); written \
+                     as rendered",
+                    d.scene.path.display(),
+                    frame.unwrap_or_default()
+                )
+            });
+        }
         if let Some(bar) = self.sequence.lock().unwrap().as_ref() {
             bar.inc(1);
         }

@@ -43,11 +43,12 @@ impl Default for ToneMapSettings {
     }
 }
 
-/// Tone maps linear RGB (interleaved, `width × height`) to display-linear RGB in [0, 1].
+/// Tone maps linear RGB (interleaved, `width × height`) to display-linear RGB in [0, 1]. An
+/// all-black image maps to black under every operator.
 ///
 /// # Errors
-/// [`perception::PerceptionError`] for bad sizes, NaN/infinite/negative values, an all-black
-/// image or bad display settings.
+/// [`perception::PerceptionError`] for bad sizes, NaN/infinite/negative values or bad display
+/// settings.
 pub fn tone_map(
     rgb: &[f32],
     width: usize,
@@ -63,11 +64,9 @@ pub fn tone_map(
     }
     perception::PerceptionError::check_rgb(rgb, width, height)?;
     if rgb.iter().all(|&v| v == 0.0) {
-        return Err(perception::PerceptionError::Parameter {
-            name: "image luminance",
-            value: 0.0,
-            range: "not all black (nothing to tone map)",
-        });
+        // Every operator maps zero luminance to zero display luminance: a black render (a
+        // camera facing away from every light) is displayed black, not refused.
+        return Ok(vec![0.0; rgb.len()]);
     }
     // The curve frozen from the image itself is the operator's own curve for that image.
     FrozenToneMap::new(rgb, width, height, s)?.map(rgb)
