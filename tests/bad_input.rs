@@ -589,3 +589,40 @@ fn a_black_render_is_written_with_a_warning() {
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert!(d.join("m.png").exists());
 }
+
+/// Options that would loop or allocate without limit are refused before any work, and huge
+/// numbers are printed as numbers, not 300 digits (issue 35, classes 1 and 8, in part).
+#[test]
+fn thread_counts_and_time_budgets_have_limits() {
+    let dir = crate::util::tempdir();
+    let scene = crate::util::repo("scenes/cornell-box/scene.toml");
+    for (args, expect) in [
+        (vec!["--threads", "100000"], "--threads 100000: at most"),
+        (
+            vec!["--threads", "4294967296"],
+            "--threads 4294967296: at most",
+        ),
+        (vec!["--time", "1e300"], "got 1e300"),
+        (vec!["--time=-1"], "(--time) must be a positive"),
+    ] {
+        let t = std::time::Instant::now();
+        let r = Command::new(env!("CARGO_BIN_EXE_aleph"))
+            .current_dir(dir.path())
+            .arg("render")
+            .arg(&scene)
+            .args(["--resolution", "4x3", "--spp", "2"])
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(expect) && err.len() < 400, "{args:?}: {err}");
+        assert_eq!(err.matches("error").count(), 1, "{args:?}: {err}");
+        assert!(
+            t.elapsed().as_secs() < 10,
+            "{args:?} took {:?}",
+            t.elapsed()
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+}

@@ -356,13 +356,13 @@ impl RenderJob {
         if let Some(n) = self.budget.spp
             && !(n.is_finite() && n >= 1.0)
         {
-            return bad(format!("budget.spp (--spp) must be at least 1, got {n}"));
+            return bad(format!("budget.spp (--spp) must be at least 1, got {n:?}"));
         }
         if let Some(t) = self.budget.time_s
             && !(t.is_finite() && t > 0.0 && t <= 1e9)
         {
             return bad(format!(
-                "budget.time_s (--time) must be a positive number of seconds up to 1e9, got {t}"
+                "budget.time_s (--time) must be a positive number of seconds up to 1e9, got {t:?}"
             ));
         }
         if let Some(ev) = self.display.exposure_ev {
