@@ -86,7 +86,7 @@ fn aleph(dir: &Path, args: &[&str]) {
 }
 
 /// Small renders that still exercise every rule: adaptive budgets are steered (`--steer-from 0`).
-const STILL: [&str; 4] = ["--resolution", "40x30", "--max-depth", "4"];
+const STILL: &str = "--resolution 40x30 --max-depth 4";
 
 /// The scene files of the bundled stills.
 const STILLS: [&str; 7] = [
@@ -102,50 +102,36 @@ const STILLS: [&str; 7] = [
 /// A case: a name and the commands it runs (each in the case's own directory).
 type Case = (String, Vec<Vec<String>>);
 
-/// Words as owned strings.
-fn s(v: &[&str]) -> Vec<String> {
-    v.iter().map(|x| x.to_string()).collect()
+/// The command `words` (split at blanks) with the bundled scene `scene` after its first word,
+/// so that a repository path with blanks stays one argument.
+fn cmd(scene: &str, words: &str) -> Vec<String> {
+    let mut w = words.split_whitespace().map(String::from);
+    let mut out: Vec<String> = w.next().into_iter().collect();
+    if !scene.is_empty() {
+        out.push(repo(scene).display().to_string());
+    }
+    out.extend(w);
+    out
 }
 
 /// Every bundled still with each sampling rule.
 fn still_cases() -> Vec<Case> {
+    let rules = [
+        ("uniform", "--sampler uniform --spp 6"),
+        (
+            "perceptual",
+            "--sampler perceptual --spp 12 --steer-from 0 --min-spp 4",
+        ),
+        (
+            "variance",
+            "--sampler variance --spp 12 --steer-from 0 --min-spp 4",
+        ),
+        ("converged", "--max-spp 32 --min-spp 4"),
+    ];
     let mut out = Vec::new();
     for scene in STILLS {
-        let path = repo(scene).display().to_string();
-        let rules: [(&str, &[&str]); 4] = [
-            ("uniform", &["--sampler", "uniform", "--spp", "6"]),
-            (
-                "perceptual",
-                &[
-                    "--sampler",
-                    "perceptual",
-                    "--spp",
-                    "12",
-                    "--steer-from",
-                    "0",
-                    "--min-spp",
-                    "4",
-                ],
-            ),
-            (
-                "variance",
-                &[
-                    "--sampler",
-                    "variance",
-                    "--spp",
-                    "12",
-                    "--steer-from",
-                    "0",
-                    "--min-spp",
-                    "4",
-                ],
-            ),
-            ("converged", &["--max-spp", "32", "--min-spp", "4"]),
-        ];
         for (rule, opts) in rules {
-            let mut c = s(&["render", &path, "-o", "out", "--aov"]);
-            c.extend(s(&STILL));
-            c.extend(s(opts));
+            let c = cmd(scene, &format!("render -o out --aov {STILL} {opts}"));
             out.push((format!("{scene} {rule}"), vec![c]));
         }
     }
@@ -154,81 +140,38 @@ fn still_cases() -> Vec<Case> {
 
 /// The two animated scenes as short sequences.
 fn sequence_cases() -> Vec<Case> {
-    let motion = repo("scenes/cornell-motion/scene.toml")
-        .display()
-        .to_string();
-    let pan = repo("scenes/holodeck/pan.toml").display().to_string();
-    let mut out = Vec::new();
-    for (name, scene, frames) in [
-        ("cornell-motion", &motion, "2-4"),
-        ("holodeck pan", &pan, "0-2"),
-    ] {
-        let mut c = s(&["render", scene, "-o", "seq", "--frames", frames]);
-        c.extend(s(&[
-            "--resolution",
-            "32x24",
-            "--spp",
-            "8",
-            "--steer-from",
-            "0",
-            "--min-spp",
-            "4",
-        ]));
-        out.push((format!("{name} sequence"), vec![c]));
-    }
-    out
+    let opts = "--resolution 32x24 --spp 8 --steer-from 0 --min-spp 4";
+    [
+        ("cornell-motion", "scenes/cornell-motion/scene.toml", "2-4"),
+        ("holodeck pan", "scenes/holodeck/pan.toml", "0-2"),
+    ]
+    .into_iter()
+    .map(|(name, scene, frames)| {
+        let c = cmd(scene, &format!("render -o seq --frames {frames} {opts}"));
+        (format!("{name} sequence"), vec![c])
+    })
+    .collect()
 }
 
 /// Sample parts (of a still and of a frame) and row tiles, each merged.
 fn split_cases() -> Vec<Case> {
-    let motion = repo("scenes/cornell-motion/scene.toml")
-        .display()
-        .to_string();
-    let box_ = repo("scenes/cornell-box/scene.toml").display().to_string();
-    let part = |i: &str| {
-        let mut c = s(&[
-            "render",
-            &box_,
-            "-o",
-            "p",
-            "--sampler",
-            "uniform",
-            "--spp",
-            "8",
-        ]);
-        c.extend(s(&STILL));
-        c.extend(s(&["--part", i]));
-        c
-    };
+    let (cornell, motion) = (
+        "scenes/cornell-box/scene.toml",
+        "scenes/cornell-motion/scene.toml",
+    );
+    let uniform = "render -o p --sampler uniform --spp 8";
+    let part = |i: &str| cmd(cornell, &format!("{uniform} {STILL} --part {i}"));
     let mpart = |i: &str| {
-        let mut c = s(&[
-            "render",
-            &motion,
-            "-o",
-            "p",
-            "--sampler",
-            "uniform",
-            "--spp",
-            "8",
-        ]);
-        c.extend(s(&["--resolution", "32x24", "--frame", "3", "--part", i]));
-        c
+        cmd(
+            motion,
+            &format!("{uniform} --resolution 32x24 --frame 3 --part {i}"),
+        )
     };
     let tile = |i: &str| {
-        let mut c = s(&[
-            "render",
-            &box_,
-            "-o",
-            "t",
-            "--spp",
-            "16",
-            "--steer-from",
-            "0",
-        ]);
-        c.extend(s(&STILL));
-        c.extend(s(&["--min-spp", "4", "--tile-margin", "4", "--tile", i]));
-        c
+        let opts = "--spp 16 --steer-from 0 --min-spp 4 --tile-margin 4";
+        cmd(cornell, &format!("render -o t {STILL} {opts} --tile {i}"))
     };
+    let merge = |parts: &str| cmd("", &format!("merge {parts} -o m"));
     vec![
         (
             "cornell-box parts merged".into(),
@@ -236,14 +179,7 @@ fn split_cases() -> Vec<Case> {
                 part("1/3"),
                 part("2/3"),
                 part("3/3"),
-                s(&[
-                    "merge",
-                    "p.part-3-of-3.exr",
-                    "p.part-1-of-3.exr",
-                    "p.part-2-of-3.exr",
-                    "-o",
-                    "m",
-                ]),
+                merge("p.part-3-of-3.exr p.part-1-of-3.exr p.part-2-of-3.exr"),
             ],
         ),
         (
@@ -251,13 +187,7 @@ fn split_cases() -> Vec<Case> {
             vec![
                 mpart("1/2"),
                 mpart("2/2"),
-                s(&[
-                    "merge",
-                    "p.0003.part-1-of-2.exr",
-                    "p.0003.part-2-of-2.exr",
-                    "-o",
-                    "m",
-                ]),
+                merge("p.0003.part-1-of-2.exr p.0003.part-2-of-2.exr"),
             ],
         ),
         (
@@ -265,7 +195,7 @@ fn split_cases() -> Vec<Case> {
             vec![
                 tile("1/2"),
                 tile("2/2"),
-                s(&["merge", "t.tile-1-of-2.exr", "t.tile-2-of-2.exr", "-o", "m"]),
+                merge("t.tile-1-of-2.exr t.tile-2-of-2.exr"),
             ],
         ),
     ]
