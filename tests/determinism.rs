@@ -102,7 +102,19 @@ fn cli_output_is_identical_for_one_and_two_threads() {
     let (a, b) = (channels("a.exr"), channels("b.exr"));
     assert_eq!(
         a.iter().map(|c| c.0.clone()).collect::<Vec<_>>(),
-        ["B", "Error.Y", "G", "R", "Threshold.Y", "spp"]
+        [
+            "B",
+            "Depth.Z",
+            "Error.Y",
+            "G",
+            "IndexOB",
+            "Normal.X",
+            "Normal.Y",
+            "Normal.Z",
+            "R",
+            "Threshold.Y",
+            "spp"
+        ]
     );
     assert!(a == b, "EXR channels differ");
     assert!(read("a.png") == read("b.png"), "PNG files differ");

@@ -81,6 +81,17 @@ impl Camera {
         Camera::look_at(k.position, k.look_at, k.up, k.vfov_deg, width, height)
     }
 
+    /// The unit view axis (the direction the camera looks along).
+    pub fn forward(&self) -> Vec3 {
+        self.forward
+    }
+
+    /// Distance of world point `p` along the view axis (Blender's `Depth.Z`), m; negative
+    /// behind the camera.
+    pub fn depth_of(&self, p: Vec3) -> f32 {
+        (p - self.position).dot(self.forward)
+    }
+
     /// Continuous raster position (x right, y down, pixel (x, y) covering [x, x+1) × [y, y+1))
     /// of world point `p`, or `None` when `p` is not in front of the camera.
     pub fn raster(&self, p: Vec3) -> Option<Vec2> {

@@ -3,7 +3,10 @@
 //! - `STEM.exr`: linear radiance (W·sr⁻¹·m⁻², Rec.709 RGB, f32) with layers `spp` (samples per
 //!   pixel), `Threshold.Y` and `Error.Y` (the sampler's last threshold and error, units in the
 //!   header), and for a sequence frame Blender's Vector pass (`Vector.X/Y/Z/W`, see
-//!   [`crate::velocity`]) with the frame number, fps and shutter in the header;
+//!   [`crate::velocity`]) with the frame number, fps and shutter in the header; the G-buffer at
+//!   the pixel centres as Blender names it (`Depth.Z`, `Normal.X/Y/Z`, `IndexOB`,
+//!   [`crate::gbuffer`]); a frame that reused earlier frames adds `History.spp`, the reused
+//!   weight (`spp` counts the fresh samples only, [`crate::reuse`]);
 //! - `STEM.png`: the display image (8-bit sRGB) through a [`Look`];
 //! - with `aov`: `STEM.spp.png` (samples per pixel) and `STEM.ratio.png` (error / threshold,
 //!   1/16 to 16), false colour on log scales.
@@ -144,7 +147,41 @@ fn exr_layers(scene: &Scene, settings: &AdaptiveSettings, result: &AdaptiveResul
         attributes.push(("alephFps".to_string(), a.fps.to_string()));
         attributes.push(("alephShutter".to_string(), a.shutter.to_string()));
     }
+    if let Some(g) = &result.gbuffer {
+        gbuffer_layers(g, &mut extra, &mut attributes);
+    }
+    if let (Some(history), Some(r)) = (&result.film.history, &result.reuse) {
+        let weight = history.iter().map(|h| h.weight() as f32).collect();
+        extra.push(("History.spp".to_string(), ChannelData::F32(weight)));
+        attributes.push((
+            "historyUnits".to_string(),
+            "samples reused from earlier frames (weighted; spp holds the fresh samples)"
+                .to_string(),
+        ));
+        attributes.push(("alephReuseFrames".to_string(), r.frames.to_string()));
+    }
     (extra, attributes)
+}
+
+/// The G-buffer's layers as Blender names them: `Depth.Z`, `Normal.X/Y/Z`, `IndexOB`.
+fn gbuffer_layers(
+    g: &crate::gbuffer::GBuffer,
+    extra: &mut Vec<(String, ChannelData)>,
+    attributes: &mut Vec<(String, String)>,
+) {
+    extra.push(("Depth.Z".to_string(), ChannelData::F32(g.depth.clone())));
+    for (c, name) in ["X", "Y", "Z"].iter().enumerate() {
+        let plane = g.normal.iter().skip(c).step_by(3).copied().collect();
+        extra.push((format!("Normal.{name}"), ChannelData::F32(plane)));
+    }
+    let index = g.object.iter().map(|&o| o as f32).collect();
+    extra.push(("IndexOB".to_string(), ChannelData::F32(index)));
+    attributes.push((
+        "gbufferUnits".to_string(),
+        "at the pixel centre: Depth.Z metres along the view axis (1e10: background), \
+         Normal world-space shading normal, IndexOB 0 background / 1 static / 2+i instance i"
+            .to_string(),
+    ));
 }
 
 /// Writes the outputs of `result` (a render of `scene`'s current frame with `settings`) to

@@ -252,6 +252,8 @@ pub struct Instance {
     blas: Bvh,
     bounds_min: Vec3A,
     bounds_max: Vec3A,
+    /// Rest-space bounds of its triangles.
+    rest: (Vec3, Vec3),
 }
 
 impl Instance {
@@ -437,6 +439,7 @@ impl Geometry {
                     track,
                     bounds_min,
                     bounds_max,
+                    rest: (lo, hi),
                 }
             })
             .collect();
@@ -489,6 +492,32 @@ impl Geometry {
     pub fn transform_at(&self, tri: u32, time: f32) -> Option<Affine3A> {
         let inst = self.tris.instance(tri as usize);
         (inst != STATIC_INSTANCE).then(|| self.instance_of(inst).track.at(time))
+    }
+
+    /// Whether the segment from `o` to `o + d` (any length) passes through the world-space
+    /// box of any moving instance posed at `time` (its rest box's transformed corners, boxed).
+    pub fn segment_meets_moving(&self, o: Vec3, d: Vec3, time: f32) -> bool {
+        self.instances.iter().any(|inst| {
+            let m = inst.track.at(time);
+            let (lo, hi) = inst.rest;
+            let (mut bmin, mut bmax) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for c in 0..8 {
+                let p = Vec3::new(
+                    if c & 1 == 0 { lo.x } else { hi.x },
+                    if c & 2 == 0 { lo.y } else { hi.y },
+                    if c & 4 == 0 { lo.z } else { hi.z },
+                );
+                let q = m.transform_point3(p);
+                bmin = bmin.min(q);
+                bmax = bmax.max(q);
+            }
+            let inv = d.recip();
+            let t0 = (bmin - o) * inv;
+            let t1 = (bmax - o) * inv;
+            let near = t0.min(t1).max_element().max(0.0);
+            let far = t0.max(t1).min_element().min(1.0);
+            near <= far
+        })
     }
 
     #[inline]

@@ -164,7 +164,7 @@ fn shading_normal(
 /// True when nothing blocks the light sample `ls` from the hit point: a shadow ray to a point
 /// just short of a surface sample, to the position of a point light, or out to infinity.
 #[inline]
-fn shadow_ray_clear(
+pub(crate) fn shadow_ray_clear(
     geo: &crate::geometry::Geometry,
     hit: &Hit,
     ls: &LightSample,

@@ -68,9 +68,13 @@
 
 mod allocate;
 mod criterion;
+mod temporal;
+
+pub use temporal::{REUSE_CAP_SHARE, render_reusing};
 
 use crate::display::ToneMapSettings;
 use crate::film::Film;
+use crate::gbuffer::GBuffer;
 use crate::integrator::{Integrator, Strategy};
 use crate::render::{RenderStats, render_counts};
 use crate::scene::Scene;
@@ -477,6 +481,23 @@ pub struct AdaptiveResult {
     pub wall: Duration,
     /// The frame's velocity map (sequences only), whatever the sampler.
     pub velocity: Option<VelocityMap>,
+    /// The G-buffer at the pixel centres (`None` only for a film merged from parts).
+    pub gbuffer: Option<GBuffer>,
+    /// What the frame reused from earlier frames (`None` when it reused nothing).
+    pub reuse: Option<ReuseReport>,
+}
+
+/// What one frame reused from the frames before it ([`crate::reuse`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReuseReport {
+    /// Earlier frames reprojected.
+    pub frames: usize,
+    /// Mean reused weight per pixel, samples (the EXR's `History.spp`).
+    pub mean_history_spp: f64,
+    /// Fraction of pixels that reused anything.
+    pub reused_fraction: f64,
+    /// Wall time of the reprojection and its test against the fresh samples.
+    pub time: Duration,
 }
 
 impl AdaptiveResult {
@@ -584,12 +605,14 @@ pub fn render_adaptive(
         strategy: Strategy::Mis,
     };
     let velocity = render_velocity(scene);
+    let gbuffer = GBuffer::render(scene);
     let mut st = LoopState::new(scene, s)?;
     if !s.steers() {
         // The uniform sampler, or a budget too small to steer: one uniform pass of the whole
         // budget over the rows this render owns.
         let mut r = render_uniform_budget(scene, s, st, progress, sample_progress, start);
         r.velocity = velocity;
+        r.gbuffer = Some(gbuffer);
         return Ok(r);
     }
     let n_px = st.region.len();
@@ -604,7 +627,9 @@ pub fn render_adaptive(
     st.unreported_render = pass.wall;
     st.stats += pass;
     if budget_total.is_some_and(|b| st.region_samples() as f64 >= b as f64 - 0.002 * n_px as f64) {
-        return Ok(unjudged(st, s, progress, velocity, start));
+        let mut r = unjudged(st, s, progress, velocity, start);
+        r.gbuffer = Some(gbuffer);
+        return Ok(r);
     }
     // The threshold mapper's setup (filters, FFT plans) is a decision cost too.
     let t_setup = Instant::now();
@@ -688,6 +713,8 @@ pub fn render_adaptive(
         decision_time: st.decision_time,
         wall: start.elapsed(),
         velocity,
+        gbuffer: Some(gbuffer),
+        reuse: None,
     })
 }
 
@@ -809,6 +836,8 @@ fn unjudged(
         decision_time: Duration::ZERO,
         wall: start.elapsed(),
         velocity,
+        gbuffer: None,
+        reuse: None,
     }
 }
 
@@ -892,5 +921,7 @@ fn render_uniform_budget(
         decision_time: Duration::ZERO,
         wall: start.elapsed(),
         velocity: None,
+        gbuffer: None,
+        reuse: None,
     }
 }

@@ -168,6 +168,8 @@ pub fn merge(parts: &[PathBuf], stem: &Path) -> Result<MergeReport, JobError> {
         decision_time: Duration::ZERO,
         wall: start.elapsed(),
         velocity: crate::velocity::render_velocity(&scene),
+        gbuffer: Some(crate::gbuffer::GBuffer::render(&scene)),
+        reuse: None,
         film,
     };
     let written = write_render(&scene, &stem, &settings, &result, look, false)?;

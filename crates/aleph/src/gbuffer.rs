@@ -1,0 +1,361 @@
+//! The G-buffer: what the camera ray through each pixel centre sees at the frame's instant,
+//! and where that surface was seen in other frames (for reuse across frames, [`crate::reuse`]).
+//!
+//! # Layers (named as Blender writes them)
+//! - `Depth.Z`: distance of the hit along the camera's view axis, metres (scene units);
+//!   [`BACKGROUND_DEPTH`] (Blender's 10¹⁰) where the ray leaves the scene.
+//! - `Normal.X/Y/Z`: the shading normal at the hit in world space (zero for the background).
+//! - `IndexOB`: the object seen: 0 the background, 1 the static geometry, 2 + i moving
+//!   instance i (aleph's objects are its instances; Blender writes the object's pass index).
+//!
+//! The reuse code also keeps the material index and how far the view direction may turn
+//! before the radiance the pixel sees changes ([`GBuffer::reuse_angle`]).
+
+use crate::geometry::Ray;
+use crate::material::MaterialKind;
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+/// `Depth.Z` where nothing is hit (Blender's value for the background).
+pub const BACKGROUND_DEPTH: f32 = 1e10;
+
+/// `IndexOB` of the background.
+pub const BACKGROUND_OBJECT: u32 = 0;
+
+/// How far (radians) the view direction to a glossy surface may turn, as a multiple of its
+/// GGX α, before its radiance is no longer reused: the reflected lobe is about 2α wide, and a
+/// highlight moves across it as the reflected direction turns with the view, so a turn of a
+/// quarter of α moves a highlight by an eighth of its width.
+pub const GLOSSY_TURN_PER_ALPHA: f32 = 0.25;
+
+/// What one pixel centre's ray hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Seen {
+    /// A surface: triangle `tri`, the hit in its object's rest space and its shading normal
+    /// there (world space for static geometry).
+    Surface {
+        /// Triangle index.
+        tri: u32,
+        /// Hit point in the object's rest space.
+        local: Vec3,
+        /// Shading normal in the object's rest space.
+        local_normal: Vec3,
+    },
+    /// Nothing: the direction of the ray (a point at infinity).
+    Background(Vec3),
+}
+
+/// Where a pixel's surface is seen from another frame's camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sight {
+    /// Continuous raster position in that frame (x right, y down).
+    pub raster: Vec2,
+    /// The surface point in world space at that frame's instant (unused for the background).
+    pub point: Vec3,
+    /// Its shading normal in world space then (zero for the background).
+    pub normal: Vec3,
+    /// Angle (radians) between the directions the two cameras see the point from.
+    pub turn: f32,
+    /// The area of surface one pixel covers there over the area it covers here (distance² over
+    /// the cosine to the normal, the pixel's solid angle taken as equal): 1 for the
+    /// background.
+    pub footprint_ratio: f32,
+}
+
+/// The G-buffer of one frame, row-major `width × height` (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GBuffer {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// The frame's instant, seconds.
+    pub time: f32,
+    /// `Depth.Z` per pixel, m.
+    pub depth: Vec<f32>,
+    /// `Normal.X/Y/Z`, 3 values per pixel, world space.
+    pub normal: Vec<f32>,
+    /// `IndexOB` per pixel.
+    pub object: Vec<u32>,
+    /// Material index per pixel (`u32::MAX` for the background).
+    pub material: Vec<u32>,
+    /// Hit point in world space per pixel (the ray direction for the background).
+    pub position: Vec<Vec3>,
+    /// How far the view direction may turn (radians) before the radiance the pixel sees
+    /// changes: infinite for view-independent surfaces (diffuse, emitters, the environment),
+    /// [`GLOSSY_TURN_PER_ALPHA`] · α for glossy ones, 0 for mirrors and glass.
+    pub reuse_angle: Vec<f32>,
+    /// What each pixel saw, for [`GBuffer::sight`].
+    pub seen: Vec<Seen>,
+    /// The direct irradiance's luminance at each pixel's surface point (W·m⁻² weighted by
+    /// Rec.709 luminance), estimated from [`DIRECT_SAMPLES`] light samples that are the same
+    /// for every pixel and frame (common random numbers): unchanged light at an unchanged
+    /// point gives the same value in every frame, a moving shadow or a light switched on does
+    /// not. 0 for the background; NaN where no moving object comes near the way from the
+    /// point to any of the light samples (nor is the point on one): the direct light there is
+    /// that of the static scene, the same in every frame, and costs no shadow ray. Empty when
+    /// nothing but the camera moves (no moving instance).
+    pub direct: Vec<f32>,
+    /// Whether each pixel straddles an edge: a 4-neighbour sees another object or material, or
+    /// a point off this pixel's tangent plane by more than [`EDGE_PLANE_TOLERANCE`] of its depth.
+    /// Such a pixel's samples mix surfaces in proportions that change with any shift of the
+    /// view.
+    pub edge: Vec<bool>,
+}
+
+/// Distance off a pixel's tangent plane, as a fraction of its depth, at which a neighbour's
+/// point makes the pixel an edge.
+pub const EDGE_PLANE_TOLERANCE: f32 = 0.01;
+
+/// Light samples of [`GBuffer::direct`].
+pub const DIRECT_SAMPLES: u32 = 32;
+
+impl GBuffer {
+    /// Traces the pixel centres of `scene`'s current frame (its instant, the centre of the
+    /// lens).
+    pub fn render(scene: &Scene) -> GBuffer {
+        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+        let t = scene.frame.time_s as f32;
+        let moving = scene.geometry.has_motion();
+        let texels: Vec<(Texel, f32)> = (0..w * h)
+            .into_par_iter()
+            .map(|i| {
+                let ray =
+                    scene
+                        .camera
+                        .generate_ray((i % w) as u32, (i / w) as u32, Vec2::splat(0.5), t);
+                let texel = trace_centre(scene, &ray, t);
+                let direct = match &texel.hit {
+                    Some(hit) if moving => direct_signature(scene, hit, -ray.d, t),
+                    _ => 0.0,
+                };
+                (texel, direct)
+            })
+            .collect();
+        let mut g = GBuffer {
+            width: w,
+            height: h,
+            time: t,
+            depth: Vec::with_capacity(w * h),
+            normal: Vec::with_capacity(3 * w * h),
+            object: Vec::with_capacity(w * h),
+            material: Vec::with_capacity(w * h),
+            position: Vec::with_capacity(w * h),
+            reuse_angle: Vec::with_capacity(w * h),
+            seen: Vec::with_capacity(w * h),
+            direct: Vec::with_capacity(w * h),
+            edge: Vec::new(),
+        };
+        for (t, direct) in texels {
+            g.seen.push(t.seen);
+            g.position.push(t.position);
+            g.normal.extend(t.normal.to_array());
+            g.object.push(t.object);
+            g.material.push(t.material);
+            g.reuse_angle.push(t.reuse_angle);
+            g.depth.push(t.depth);
+            if moving {
+                g.direct.push(direct);
+            }
+        }
+        g.edge = (0..w * h).map(|i| g.straddles_edge(i)).collect();
+        g
+    }
+
+    /// Whether pixel `i` straddles an edge (see [`GBuffer::edge`]).
+    fn straddles_edge(&self, i: usize) -> bool {
+        let (w, h) = (self.width, self.height);
+        let (x, y) = (i % w, i / w);
+        let n = self.normal_at(i);
+        let neighbours = [
+            (x > 0).then(|| i - 1),
+            (x + 1 < w).then(|| i + 1),
+            (y > 0).then(|| i - w),
+            (y + 1 < h).then(|| i + w),
+        ];
+        neighbours.into_iter().flatten().any(|k| {
+            if self.object[k] != self.object[i] || self.material[k] != self.material[i] {
+                return true;
+            }
+            !self.is_background(i)
+                && (self.position[k] - self.position[i]).dot(n).abs()
+                    > EDGE_PLANE_TOLERANCE * self.depth[i]
+        })
+    }
+
+    /// The normal of pixel `i`.
+    pub fn normal_at(&self, i: usize) -> Vec3 {
+        Vec3::from_slice(&self.normal[3 * i..3 * i + 3])
+    }
+
+    /// Whether pixel `i` sees the background.
+    pub fn is_background(&self, i: usize) -> bool {
+        self.object[i] == BACKGROUND_OBJECT
+    }
+
+    /// Where pixel `i`'s surface is seen at scene time `t` by `scene`'s camera then (the
+    /// surface carried with its object); `None` when it is behind that camera.
+    pub fn sight(&self, scene: &Scene, i: usize, t: f32) -> Option<Sight> {
+        let cam = scene.camera_at(t);
+        let here = scene.camera_at(self.time);
+        match self.seen[i] {
+            Seen::Background(d) => Some(Sight {
+                raster: cam.raster_of_direction(d)?,
+                point: d,
+                normal: Vec3::ZERO,
+                turn: 0.0,
+                footprint_ratio: 1.0,
+            }),
+            Seen::Surface {
+                tri,
+                local,
+                local_normal,
+            } => {
+                let (point, normal) = match scene.geometry.transform_at(tri, t) {
+                    Some(m) => (
+                        m.transform_point3(local),
+                        m.matrix3.inverse().transpose().mul_vec3(local_normal),
+                    ),
+                    None => (local, local_normal),
+                };
+                let now = self.position[i] - here.position;
+                let then = point - cam.position;
+                let normal = normal.normalize_or_zero();
+                let here_normal = self.normal_at(i).normalize_or_zero();
+                let area =
+                    |v: Vec3, n: Vec3| v.length_squared() / v.normalize_or_zero().dot(n).abs();
+                let footprint_ratio = area(then, normal) / area(now, here_normal);
+                // atan2 of the cross and dot products: exact 0 for equal directions, where
+                // acos of a rounded dot product is not.
+                let turn = now.cross(then).length().atan2(now.dot(then));
+                Some(Sight {
+                    raster: cam.raster(point)?,
+                    point,
+                    normal,
+                    footprint_ratio: if footprint_ratio.is_finite() {
+                        footprint_ratio
+                    } else {
+                        f32::INFINITY
+                    },
+                    turn,
+                })
+            }
+        }
+    }
+}
+
+/// One pixel centre's texel.
+struct Texel {
+    seen: Seen,
+    /// World point (the ray direction for the background).
+    position: Vec3,
+    normal: Vec3,
+    object: u32,
+    material: u32,
+    reuse_angle: f32,
+    depth: f32,
+    hit: Option<crate::geometry::Hit>,
+}
+
+fn trace_centre(scene: &Scene, ray: &Ray, t: f32) -> Texel {
+    let Some(hit) = scene.geometry.intersect(ray) else {
+        return Texel {
+            seen: Seen::Background(ray.d),
+            position: ray.d,
+            normal: Vec3::ZERO,
+            object: BACKGROUND_OBJECT,
+            material: u32::MAX,
+            reuse_angle: f32::INFINITY,
+            depth: BACKGROUND_DEPTH,
+            hit: None,
+        };
+    };
+    let tris = &scene.geometry.tris;
+    let material = tris.material(hit.tri as usize);
+    let instance = tris.instance(hit.tri as usize);
+    let (local, local_normal) = match scene.geometry.transform_at(hit.tri, t) {
+        Some(m) => (
+            m.inverse().transform_point3(hit.p),
+            m.matrix3.transpose().mul_vec3(hit.ns),
+        ),
+        None => (hit.p, hit.ns),
+    };
+    let object = if instance == crate::geometry::STATIC_INSTANCE {
+        1
+    } else {
+        instance + 2
+    };
+    let reuse_angle = match scene.materials[material as usize].kind {
+        MaterialKind::Diffuse => f32::INFINITY,
+        MaterialKind::Glossy { alpha } => GLOSSY_TURN_PER_ALPHA * alpha,
+        MaterialKind::Mirror | MaterialKind::Dielectric { .. } => 0.0,
+    };
+    Texel {
+        seen: Seen::Surface {
+            tri: hit.tri,
+            local,
+            local_normal: local_normal.normalize_or_zero(),
+        },
+        position: hit.p,
+        normal: hit.ns,
+        object,
+        material,
+        reuse_angle,
+        depth: scene.camera.depth_of(hit.p),
+        hit: Some(hit),
+    }
+}
+
+/// [`GBuffer::direct`] at `hit`, seen from direction `wo` (towards the camera): the mean of
+/// L·cos/pdf over the fixed light samples (a Kronecker sequence in the light-choice and
+/// position dimensions) whose shadow rays are clear.
+fn direct_signature(scene: &Scene, hit: &crate::geometry::Hit, wo: Vec3, t: f32) -> f32 {
+    let ng = if hit.ng.dot(wo) < 0.0 {
+        -hit.ng
+    } else {
+        hit.ng
+    };
+    let ns = if hit.ns.dot(ng) < 0.0 {
+        -hit.ns
+    } else {
+        hit.ns
+    };
+    // R3 (Roberts 2018): the plastic-number Kronecker sequence, well spread in 3-D.
+    const A: [f32; 3] = [0.819_172_5, 0.671_043_5, 0.549_700_5];
+    let samples: Vec<_> = (0..DIRECT_SAMPLES)
+        .filter_map(|s| {
+            let u = A.map(|a| (a * (s as f32 + 0.5)).fract());
+            let ls = scene.lights.sample(
+                hit.p,
+                ns,
+                u[0],
+                Vec2::new(u[1], u[2]),
+                t,
+                &scene.geometry,
+                &scene.materials,
+                &scene.textures,
+            )?;
+            (ls.le.max_element() > 0.0 && ls.pdf > 0.0 && ls.wi.dot(ng) > 0.0).then_some(ls)
+        })
+        .collect();
+    // Static lights, static occluders: unless a moving object is near the way to a light
+    // sample (or the surface itself moves), the direct light here is the same in every frame.
+    let geo = &scene.geometry;
+    let moves = geo.tris.instance(hit.tri as usize) != crate::geometry::STATIC_INSTANCE;
+    let touched = moves
+        || samples.iter().any(|ls| {
+            let reach = if ls.dist.is_finite() { ls.dist } else { 1e6 };
+            geo.segment_meets_moving(hit.p, ls.wi * reach, t)
+        });
+    if !touched {
+        return f32::NAN;
+    }
+    let mut e = 0.0;
+    for ls in samples {
+        if crate::integrator::shadow_ray_clear(geo, hit, &ls, t) {
+            e += crate::math::luminance(ls.le) * ls.wi.dot(ns).max(0.0) / ls.pdf;
+        }
+    }
+    e / DIRECT_SAMPLES as f32
+}
