@@ -429,11 +429,13 @@ fn sequence_speedup_runs_end_to_end_on_a_tiny_scene() {
             && table.contains("velocity's gain"),
         "{table}"
     );
-    // Per-frame rows: 2 frames × 3 budgets × 4 arms; the sequence rows: 3 × 4.
+    // Per-frame rows: 2 frames × 3 budgets × 5 arms (reuse across frames the fifth); the
+    // sequence rows: 3 × 5.
     let frames = std::fs::read_to_string(out.join("frames.csv")).unwrap();
-    assert_eq!(frames.lines().count(), 1 + 2 * 3 * 4);
+    assert_eq!(frames.lines().count(), 1 + 2 * 3 * 5);
     let csv = std::fs::read_to_string(out.join("speedup.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 3 * 4);
+    assert_eq!(csv.lines().count(), 1 + 3 * 5);
+    assert!(table.contains("| reuse | 8 |"), "{table}");
     // The frames a video judge reads: one folder per arm and budget, and the reference.
     for f in [
         "frames/reference/0001.png",

@@ -167,8 +167,17 @@ fn farm_scripts_give_the_single_machine_files() {
     let scene = repo("scenes/cornell-motion/scene.toml");
     let scene = scene.to_str().unwrap();
     let opts = ["--resolution", "40x40", "--spp", "6"];
-    // A sequence split by frames (perceptual sampler) and one split by samples (uniform).
-    for (name, extra) in [("frames", vec![]), ("parts", vec!["--sampler", "uniform"])] {
+    // A sequence of the perceptual sampler reusing frames (the default window of 7: frames
+    // 2-4 are one run, one task; a window of 1: runs 2-3 and 4-5, two tasks, the first
+    // starting at a run's start and the second rendering only frame 4), one of independent
+    // frames (a task per frame), and one split by samples (uniform).
+    let cases: [(&str, Vec<&str>, usize); 4] = [
+        ("frames", vec![], 1),
+        ("runs", vec!["--reuse-window", "1"], 2),
+        ("independent", vec!["--reuse-window", "0"], 3),
+        ("parts", vec!["--sampler", "uniform"], 9),
+    ];
+    for (name, extra, n) in cases {
         let reference = d.join(format!("{name}-ref"));
         std::fs::create_dir(&reference).unwrap();
         let mut args = vec!["render", scene, "--frames", "2-4", "-o"];
@@ -190,7 +199,6 @@ fn farm_scripts_give_the_single_machine_files() {
         args.extend(["-o", farm.to_str().unwrap(), "--"]);
         args.extend(opts.iter().chain(&extra));
         let text = ok(&aleph(&args, d));
-        let n = if name == "parts" { 9 } else { 3 };
         assert!(text.contains(&format!("{n} tasks")), "{text}");
         for i in 0..n {
             run_script(&farm.join("render.sbatch"), Some(i));

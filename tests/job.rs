@@ -41,6 +41,7 @@ fn a_sequence_renders_through_the_library() {
     job.budget.spp = Some(8.0);
     job.sampling.steer_from_spp = 0.0;
     job.sampling.min_spp = 4;
+    job.sampling.reuse_window = Some(0);
     job.output.stem = Some(dir.path().join("seq"));
     let frames = Frames::default();
     let report = job::run(&job, &frames).unwrap();

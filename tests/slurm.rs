@@ -2,7 +2,7 @@
 //!
 //! `.ci/run` starts a single-node cluster with `tests/slurm/cluster.sh start DIR` and runs
 //! `SLURM_CONF=DIR/slurm.conf cargo test --release --test slurm -- --ignored`. The test submits
-//! a 4-frame sequence split by frames (perceptual sampler) and a still split into 2 sample parts
+//! a 4-frame sequence split into runs of frames that reuse each other (perceptual sampler) and a still split into 2 sample parts
 //! (uniform) with `aleph farm slurm --submit --wait`, and checks every file against the same
 //! command line rendered on one machine, byte for byte. It prints the finishing job's split of
 //! the wall time (queueing, rendering, merging).
@@ -97,10 +97,18 @@ fn farm_through_slurm_equals_one_machine() {
         "sequence",
         motion.to_str().unwrap(),
         &["--frames", "1-4"],
-        // Steered (a 16-spp budget is rendered uniformly by default).
-        &["--resolution", "64x64", "--spp", "16", "--steer-from", "0"],
+        // Reusing frames in runs of 2 (0-1, 2-3, 4-5): three tasks, frames 1 and 4 each
+        // rendering the frame before it as warm-up only where its run starts earlier.
+        &[
+            "--resolution",
+            "64x64",
+            "--spp",
+            "16",
+            "--reuse-window",
+            "1",
+        ],
     );
-    println!("4-frame sequence, split by frames: {log}");
+    println!("4-frame sequence reusing frames, split into runs: {log}");
     let still = repo("scenes/cornell-box/scene.toml");
     let still = still.to_str().unwrap();
     let opts = [

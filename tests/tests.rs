@@ -15,6 +15,7 @@ mod golden;
 mod job;
 mod lights;
 mod reference;
+mod reuse;
 mod scenes;
 mod strategies;
 mod surfaces;

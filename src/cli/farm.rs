@@ -129,15 +129,20 @@ struct Manifest {
     /// Rows on each side of a tile that also take samples (`--tile-margin`).
     #[serde(default)]
     tile_margin: u32,
+    /// The animation's first frame, where the runs of frames that reuse each other start
+    /// (`aleph::reuse::run_start`): a render that reuses frames gets one task per run.
+    #[serde(default)]
+    runs_from: Option<i64>,
     /// The render every task runs a frame or a part of (its frames, split and outputs are the
     /// farm's to set): the render options after `--`, as a render job.
     job: RenderJob,
 }
 
-/// What one task renders.
+/// What one task renders: frames `[first, last]` (one frame, or a run of frames that reuse
+/// each other) and a part of them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Task {
-    frame: Option<i64>,
+    frames: Option<[i64; 2]>,
     part: Option<(u32, u32)>,
 }
 
@@ -149,14 +154,38 @@ impl Manifest {
         }
     }
 
+    /// The frame ranges of the tasks: each frame alone, or with reuse across frames the runs
+    /// of K + 1 frames (a frame depends on its run's earlier frames, so a run is rendered on
+    /// one machine; a range that starts inside a run renders its warm-up frames first).
+    fn frame_ranges(&self) -> Vec<Option<[i64; 2]>> {
+        let k = self.job.reuse_window();
+        match (self.frames, self.runs_from) {
+            (Some([a, b]), Some(start)) if k > 0 && self.split <= 1 => {
+                let mut out = Vec::new();
+                let mut f = a;
+                while f <= b {
+                    let end = (aleph::reuse::run_start(f, start, k) + k as i64).min(b);
+                    out.push(Some([f, end]));
+                    f = end + 1;
+                }
+                out
+            }
+            _ => self
+                .frame_list()
+                .into_iter()
+                .map(|f| f.map(|f| [f, f]))
+                .collect(),
+        }
+    }
+
     /// Tasks in index order: frames outer, parts inner.
     fn tasks(&self) -> Vec<Task> {
         let k = self.split;
-        self.frame_list()
+        self.frame_ranges()
             .into_iter()
-            .flat_map(|frame| {
+            .flat_map(|frames| {
                 (1..=k).map(move |p| Task {
-                    frame,
+                    frames,
                     part: (k > 1).then_some((p, k)),
                 })
             })
@@ -195,7 +224,7 @@ impl Manifest {
     /// The render job of a task.
     fn task_job(&self, dir: &Path, t: Task) -> RenderJob {
         let mut job = self.job.clone();
-        job.frames = t.frame.map(|f| [f, f]);
+        job.frames = t.frames;
         job.split = t.part.map(|(index, count)| match self.tiles {
             true => Split::Tile {
                 index,
@@ -217,11 +246,20 @@ impl Manifest {
 
     /// The files a task leaves when done.
     fn task_outputs(&self, dir: &Path, t: Task) -> Vec<PathBuf> {
-        let stem = self.frame_stem(dir, t.frame);
-        match t.part {
-            Some((p, k)) => vec![part_path(&stem, p, k, self.tiles)],
-            None => vec![with_ext(&stem, "exr"), with_ext(&stem, "png")],
-        }
+        let frames: Vec<Option<i64>> = match t.frames {
+            Some([a, b]) => (a..=b).map(Some).collect(),
+            None => vec![None],
+        };
+        frames
+            .into_iter()
+            .flat_map(|f| {
+                let stem = self.frame_stem(dir, f);
+                match t.part {
+                    Some((p, k)) => vec![part_path(&stem, p, k, self.tiles)],
+                    None => vec![with_ext(&stem, "exr"), with_ext(&stem, "png")],
+                }
+            })
+            .collect()
     }
 }
 
@@ -437,7 +475,8 @@ fn batch_scripts(m: &Manifest, dir: &Path, a: &SlurmArgs, n_tasks: usize) -> (St
             format!("--output={}", logs.join("task-%a.out").display()),
         ],
     ) + &format!(
-        "# One task per frame{}; a task whose outputs exist does nothing.\n\
+        "# One task per frame{} (per run of frames that reuse each other, with reuse \
+         across frames); a task whose outputs exist does nothing.\n\
          exec {} farm task {} --index \"$SLURM_ARRAY_TASK_ID\"\n",
         match (m.split > 1, m.tiles) {
             (false, _) => "",
@@ -498,6 +537,7 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
         split: a.split_samples.max(a.split_tiles),
         tiles: a.split_tiles > 1,
         tile_margin: options.tile_margin,
+        runs_from: desc.animation.as_ref().map(|anim| anim.frames[0]),
         job: options.job()?,
     };
     check_render(&m)?;
@@ -524,9 +564,9 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
     }
     out.commit()?;
     println!(
-        "{}: {n_tasks} tasks ({} frames × {} {}) -> {}/render.sbatch, finish.sbatch",
+        "{}: {n_tasks} tasks ({} frame ranges × {} {}) -> {}/render.sbatch, finish.sbatch",
         m.job.scene.path.display(),
-        m.frame_list().len(),
+        m.frame_ranges().len(),
         m.split,
         if m.tiles { "tiles" } else { "parts" },
         dir.display()
@@ -605,9 +645,10 @@ fn task(a: TaskArgs) -> anyhow::Result<ExitCode> {
             tasks.len().saturating_sub(1)
         );
     };
-    let what = match (t.frame, t.part) {
-        (Some(f), Some((p, k))) => format!("frame {f}, part {p}/{k}"),
-        (Some(f), None) => format!("frame {f}"),
+    let what = match (t.frames, t.part) {
+        (Some([f, _]), Some((p, k))) => format!("frame {f}, part {p}/{k}"),
+        (Some([f, g]), None) if f == g => format!("frame {f}"),
+        (Some([f, g]), None) => format!("frames {f}-{g}"),
         (None, Some((p, k))) => format!("part {p}/{k}"),
         (None, None) => "the image".into(),
     };
@@ -672,7 +713,10 @@ fn finish(a: FinishArgs) -> anyhow::Result<ExitCode> {
 /// Merges every frame's parts into its outputs, then removes the parts.
 fn merge_frames(m: &Manifest, dir: &Path) -> anyhow::Result<()> {
     for frame in m.frame_list() {
-        let whole = Task { frame, part: None };
+        let whole = Task {
+            frames: frame.map(|f| [f, f]),
+            part: None,
+        };
         if m.task_outputs(dir, whole).iter().all(|p| p.exists()) {
             continue;
         }

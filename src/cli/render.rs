@@ -177,6 +177,12 @@ pub struct SamplingArgs {
     /// still; for comparisons).
     #[arg(long, help_heading = "Adaptive sampling")]
     pub no_velocity: bool,
+    /// Sequences: each frame reuses the samples of up to K frames before it (the perceptual
+    /// sampler; frames are rendered in runs of K + 1 from the animation's first frame, and a
+    /// frame rendered alone renders the earlier frames of its run first). 0 renders independent
+    /// frames. Default: 7 for the perceptual sampler, 0 for the others and with --time.
+    #[arg(long, value_name = "K", help_heading = "Adaptive sampling")]
+    pub reuse_window: Option<u32>,
 }
 
 impl SamplingArgs {
@@ -202,6 +208,7 @@ impl SamplingArgs {
             latitude_ev: self.latitude,
             ppd: self.ppd,
             use_velocity: !self.no_velocity,
+            reuse_window: self.reuse_window,
         }
     }
 
@@ -593,6 +600,9 @@ fn time_split(r: &AdaptiveResult) -> String {
         parts.push(format!("guide {:.2} s", g.wall.as_secs_f64()));
         parts.push(format!("perception {:.2} s", r.decision_time.as_secs_f64()));
     }
+    if let Some(reuse) = &r.reuse {
+        parts.push(format!("reprojection {:.2} s", reuse.time.as_secs_f64()));
+    }
     parts.join(", ")
 }
 
@@ -645,10 +655,16 @@ pub(super) fn summary_line(
         settings.criterion.name(),
         result.mean_spp(),
         result.passes.len(),
-        if guide > 0 {
-            format!(" + {:.1} spp guide", guide as f64 / (w * h) as f64)
-        } else {
-            String::new()
+        match (guide > 0, &result.reuse) {
+            (true, Some(r)) => format!(
+                " + {:.1} spp guide; {:.1} spp reused from {} earlier frames at {:.1} % of pixels",
+                guide as f64 / (w * h) as f64,
+                r.mean_history_spp,
+                r.frames,
+                100.0 * r.reused_fraction
+            ),
+            (true, None) => format!(" + {:.1} spp guide", guide as f64 / (w * h) as f64),
+            _ => String::new(),
         },
         result.stop.describe(),
         match result.threshold {

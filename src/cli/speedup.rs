@@ -95,6 +95,10 @@ fn run_sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::
         frames: args.frames,
         operator: args.tonemap.map(Operator::from),
         stop: args.stop,
+        reuse_window: args
+            .sampling
+            .reuse_window
+            .unwrap_or(aleph::job::DEFAULT_REUSE_WINDOW),
     };
     // Every sampler setting but the sampler, budget and display; the luminance scale is the
     // scene's (set by the sweep).
@@ -297,7 +301,7 @@ fn equal_score_tables(s: &mut String, rows: &[Row], frames: usize) {
             s,
             "| target {label} | uniform spp | variance spp | perceptual spp | speedup vs uniform (spp) | vs variance (spp) | speedup vs uniform (time) | vs variance (time) |{}",
             if frames > 0 {
-                " perceptual without velocity spp | velocity's gain (spp) |"
+                " perceptual without velocity spp | velocity's gain (spp) | reuse fresh spp | reuse vs uniform (spp) | reuse vs uniform (time) |"
             } else {
                 ""
             }
@@ -305,7 +309,11 @@ fn equal_score_tables(s: &mut String, rows: &[Row], frames: usize) {
         let _ = writeln!(
             s,
             "|---|---|---|---|---|---|---|---|{}",
-            if frames > 0 { "---|---|" } else { "" }
+            if frames > 0 {
+                "---|---|---|---|---|"
+            } else {
+                ""
+            }
         );
         let uni = curve(rows, Arm::Uniform, |r| r.mean_spp, metric);
         // Targets: the uniform sampler's scores at its budgets (excluding the extremes).
@@ -326,7 +334,15 @@ fn equal_score_tables(s: &mut String, rows: &[Row], frames: usize) {
             );
             let extra = if frames > 0 {
                 let ns = spp(Arm::PerceptualNoVelocity);
-                format!(" {} | {} |", f(ns), ratio(ns, ps))
+                let (rs, rt) = (spp(Arm::Reuse), time(Arm::Reuse));
+                format!(
+                    " {} | {} | {} | {} | {} |",
+                    f(ns),
+                    ratio(ns, ps),
+                    f(rs),
+                    ratio(us, rs),
+                    ratio(ut, rt)
+                )
             } else {
                 String::new()
             };
@@ -388,11 +404,12 @@ fn stop_report(s: &mut String, rows: &[Row], stop: &Row) {
 }
 
 type Series = (Arm, RGBColor);
-const SERIES: [Series; 4] = [
+const SERIES: [Series; 5] = [
     (Arm::Uniform, RGBColor(90, 90, 90)),
     (Arm::Variance, RGBColor(30, 110, 200)),
     (Arm::Perceptual, RGBColor(220, 60, 30)),
     (Arm::PerceptualNoVelocity, RGBColor(240, 160, 40)),
+    (Arm::Reuse, RGBColor(40, 160, 80)),
 ];
 
 fn draw<DB: DrawingBackend>(

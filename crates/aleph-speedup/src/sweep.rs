@@ -4,13 +4,14 @@ use super::{
     Ceiling, GRADES_EV, Judge, Scores, ceiling, flip_coefficients, oracle_allocations,
     rank_correlation, relative_sample_cost,
 };
-use aleph::adaptive::{AdaptiveSettings, Criterion, render_adaptive};
+use aleph::adaptive::{AdaptiveResult, AdaptiveSettings, Criterion, render_adaptive};
 use aleph::display::FrozenToneMap;
 use aleph::film::Film;
 use aleph::imaging::false_colour;
 use aleph::integrator::Strategy;
 use aleph::output::{AtomicOutputs, ChannelData, OutputError, write_exr, write_png};
 use aleph::render::{pixel_costs, render_uniform};
+use aleph::reuse::{FrameSamples, ReuseWindow};
 use aleph::scene::{Scene, SceneDescription};
 use aleph::sequence::Sequence;
 use perception::tmo::Operator;
@@ -32,15 +33,19 @@ pub enum Arm {
     Perceptual,
     /// The perceptual sampler without the velocity map (sequences).
     PerceptualNoVelocity,
+    /// The perceptual sampler reusing earlier frames' samples ([`aleph::reuse`], sequences;
+    /// its budget counts fresh samples).
+    Reuse,
 }
 
 impl Arm {
     /// Every arm; the first three for a still.
-    pub const ALL: [Arm; 4] = [
+    pub const ALL: [Arm; 5] = [
         Arm::Uniform,
         Arm::Variance,
         Arm::Perceptual,
         Arm::PerceptualNoVelocity,
+        Arm::Reuse,
     ];
 
     /// Name in tables and file names.
@@ -50,6 +55,7 @@ impl Arm {
             Arm::Variance => "variance",
             Arm::Perceptual => "perceptual",
             Arm::PerceptualNoVelocity => "perceptual-novelocity",
+            Arm::Reuse => "reuse",
         }
     }
 
@@ -58,7 +64,7 @@ impl Arm {
         match self {
             Arm::Uniform => Criterion::Uniform,
             Arm::Variance => Criterion::Variance,
-            Arm::Perceptual | Arm::PerceptualNoVelocity => Criterion::Perceptual,
+            Arm::Perceptual | Arm::PerceptualNoVelocity | Arm::Reuse => Criterion::Perceptual,
         }
     }
 }
@@ -338,6 +344,9 @@ pub struct SweepSpec {
     /// Tone operator of the judged display (`None`: Reinhard for a still, PTYG with the
     /// carried adaptation state for a sequence).
     pub operator: Option<Operator>,
+    /// The reuse arm's window K, frames (the sweep's arms include it for a sequence when
+    /// K > 0).
+    pub reuse_window: u32,
     /// Also render and judge the perceptual sampler's own stop (no budget: `aleph render`'s
     /// default, until the converged fraction of pixels is below threshold), written as
     /// [`STOP_IMAGE`].
@@ -438,6 +447,11 @@ struct SweepState {
     /// The perceptual sampler's own stop, summed over frames.
     stop: Acc,
     view: ViewingConditions,
+    /// The reuse arm's window at each budget of `budgets`.
+    windows: Vec<ReuseWindow>,
+    budgets: Vec<f64>,
+    /// The reuse window K (frames), and the animation's first frame (runs start there).
+    reuse: (u32, i64),
 }
 
 /// Renders (and caches in `dir`) a uniform reference per frame, then every arm at every budget
@@ -468,12 +482,18 @@ pub fn sweep(
         source,
     })?;
     let sequence = match (frames.first(), frames.last()) {
-        (Some(Some(first)), Some(Some(last))) => Some(Sequence::new(&scene, *first, *last)?),
+        (Some(Some(first)), Some(Some(last))) => {
+            let start = scene.animation.map_or(*first, |a| a.frame_start);
+            let warm = aleph::reuse::run_start(*first, start, spec.reuse_window);
+            Some(Sequence::new(&scene, warm, *last)?)
+        }
         _ => None,
     };
     let course = sequence.as_ref().map(Sequence::course);
-    let arms: &[Arm] = if course.is_some() {
+    let arms: &[Arm] = if course.is_some() && spec.reuse_window > 0 {
         &Arm::ALL
+    } else if course.is_some() {
+        &Arm::ALL[..4]
     } else {
         &Arm::ALL[..3]
     };
@@ -495,7 +515,16 @@ pub fn sweep(
         perceptual_counts: Vec::new(),
         stop: Acc::default(),
         view: base.tone.view,
+        windows: vec![ReuseWindow::new(); spec.budgets.len()],
+        budgets: spec.budgets.clone(),
+        reuse: (
+            spec.reuse_window,
+            scene.animation.map_or(0, |a| a.frame_start),
+        ),
     };
+    if let (Some(Some(first)), Some(seq)) = (frames.first(), &sequence) {
+        warm_up_reuse(&scene, seq, *first, spec, base, operator, &mut st)?;
+    }
     for (k, &frame) in frames.iter().enumerate() {
         let (scene, ref_scene, adaptation) = match (frame, &sequence) {
             (Some(f), Some(seq)) => {
@@ -678,7 +707,10 @@ fn judged_render(
 ) -> Result<(Row, Vec<f32>), SpeedupError> {
     let n_px = (ctx.scene.camera.width * ctx.scene.camera.height) as f64;
     let t = Instant::now();
-    let r = render_adaptive(ctx.scene, settings, &|_| {}, &|_| {})?;
+    let r = match arm {
+        Arm::Reuse => render_reused(ctx.scene, settings, budget, st)?,
+        _ => render_adaptive(ctx.scene, settings, &|_| {}, &|_| {})?,
+    };
     let wall = t.elapsed().as_secs_f64();
     let rgb = r.film.mean_rgb();
     let (scores, fmap) = judge.score_with_map(&rgb)?;
@@ -712,6 +744,68 @@ fn judged_render(
         row.csv_fields()
     );
     Ok((row, rgb))
+}
+
+/// The reuse arm's frame at `budget` (the mean fresh budget of its run): the frame reuses the
+/// window of that budget, then joins it.
+fn render_reused(
+    scene: &Scene,
+    settings: &AdaptiveSettings,
+    budget: f64,
+    st: &mut SweepState,
+) -> Result<AdaptiveResult, SpeedupError> {
+    let (k, start) = st.reuse;
+    let bi = st.windows_index(budget);
+    let frame = scene.frame.index;
+    let run = aleph::reuse::run_start(frame, start, k);
+    let window = &mut st.windows[bi];
+    window.keep_from(run);
+    let mut settings = settings.clone();
+    settings.budget_spp = Some(aleph::reuse::frame_budget(budget, frame - run, k));
+    let r = aleph::adaptive::render_reusing(scene, &settings, window, &|_| {}, &|_| {})?;
+    let g = r.gbuffer.clone().expect("a rendered frame has a G-buffer");
+    window.push(FrameSamples::new(frame, &r.film, g));
+    Ok(r)
+}
+
+/// Renders the reuse arm's frames of the first frame's run before it (not judged), so the
+/// sweep's first frame reuses what `aleph render` would.
+fn warm_up_reuse(
+    scene: &Scene,
+    sequence: &Sequence,
+    first: i64,
+    spec: &SweepSpec,
+    base: &AdaptiveSettings,
+    operator: Operator,
+    st: &mut SweepState,
+) -> Result<(), SpeedupError> {
+    let (k, start) = st.reuse;
+    for f in aleph::reuse::run_start(first, start, k)..first {
+        let ctx = sequence.frame(f)?;
+        let mut tone = base.tone;
+        tone.operator = operator;
+        tone.luminance_scale = scene.settings.luminance_scale;
+        tone.adaptation_state = Some(ctx.adaptation);
+        for &budget in &spec.budgets {
+            let settings = AdaptiveSettings {
+                criterion: Criterion::Perceptual,
+                budget_spp: Some(budget),
+                tone,
+                ..base.clone()
+            };
+            render_reused(&ctx.scene, &settings, budget, st)?;
+        }
+    }
+    Ok(())
+}
+
+impl SweepState {
+    fn windows_index(&self, budget: f64) -> usize {
+        self.budgets
+            .iter()
+            .position(|&b| b == budget)
+            .expect("a budget of the sweep")
+    }
 }
 
 /// Judges every arm at every budget on one frame (and the perceptual sampler's own stop, if

@@ -249,15 +249,45 @@ impl PixelStats {
         true
     }
 }
-/// A `width × height` grid of [`PixelStats`], row-major, row 0 at the top.
+/// Samples of earlier frames reprojected onto one pixel of this frame ([`crate::reuse`]):
+/// weighted sums kept per half-buffer, so that the half-buffer error estimate covers the
+/// reused samples' noise as it covers the fresh ones'. A weight is a (fractional) number of
+/// samples: the resampled count times the weight the reuse gave that frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HistoryPixel {
+    /// Weighted RGB sum of reused even-index samples, W·sr⁻¹·m⁻² × samples.
+    pub sum_even: DVec3,
+    /// Weighted RGB sum of reused odd-index samples.
+    pub sum_odd: DVec3,
+    /// Weight (samples) of the even sums.
+    pub n_even: f64,
+    /// Weight (samples) of the odd sums.
+    pub n_odd: f64,
+    /// Weighted Σ Y² of the reused samples.
+    pub sum_lum2: f64,
+}
+
+impl HistoryPixel {
+    /// Total weight, samples.
+    pub fn weight(&self) -> f64 {
+        self.n_even + self.n_odd
+    }
+}
+
+/// A `width × height` grid of [`PixelStats`], row-major, row 0 at the top, with the samples
+/// reused from earlier frames, if any.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     /// Width in pixels.
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// Row-major pixel statistics.
+    /// Row-major pixel statistics of the samples traced for this film.
     pub pixels: Vec<PixelStats>,
+    /// Samples of earlier frames reprojected onto these pixels (row-major), which every image
+    /// of the film ([`Film::mean_rgb`] and the half-buffers) combines with the fresh ones;
+    /// `None` for a film of fresh samples only.
+    pub history: Option<Vec<HistoryPixel>>,
 }
 
 impl Film {
@@ -267,6 +297,7 @@ impl Film {
             width,
             height,
             pixels: vec![PixelStats::default(); width as usize * height as usize],
+            history: None,
         }
     }
 
@@ -285,27 +316,81 @@ impl Film {
         &self.pixels[y as usize * self.width as usize + x as usize]
     }
 
-    /// Mean radiance per pixel as interleaved RGB `f32` (3 × pixels).
+    /// Pixel `i`'s means of half-buffer A, half-buffer B and all samples, fresh and reused
+    /// (zero where a buffer is empty).
+    #[inline]
+    pub fn means(&self, i: usize) -> (DVec3, DVec3, DVec3) {
+        let p = &self.pixels[i];
+        let Some(h) = self
+            .history
+            .as_ref()
+            .map(|h| h[i])
+            .filter(|h| h.weight() > 0.0)
+        else {
+            return (p.mean_even(), p.mean_odd(), p.mean());
+        };
+        let mean = |s: DVec3, n: f64| if n > 0.0 { s / n } else { DVec3::ZERO };
+        let (se, so) = (p.sum_even.value(), p.sum_odd.value());
+        let (ne, no) = (p.n_even() as f64, p.n_odd() as f64);
+        (
+            mean(se + h.sum_even, ne + h.n_even),
+            mean(so + h.sum_odd, no + h.n_odd),
+            mean(se + so + h.sum_even + h.sum_odd, ne + no + h.weight()),
+        )
+    }
+
+    /// Samples behind pixel `i`'s estimate: its fresh count plus the reused weight.
+    #[inline]
+    pub fn effective_count(&self, i: usize) -> f64 {
+        self.pixels[i].count() as f64 + self.history_weight(i)
+    }
+
+    /// The reused weight of pixel `i` (0 without history), samples.
+    #[inline]
+    pub fn history_weight(&self, i: usize) -> f64 {
+        self.history.as_ref().map_or(0.0, |h| h[i].weight())
+    }
+
+    /// Standard error of pixel `i`'s mean luminance over its fresh and reused samples,
+    /// sqrt(var / n_eff) (infinite under 2 samples).
+    pub fn lum_std_error(&self, i: usize) -> f64 {
+        let p = &self.pixels[i];
+        let Some(h) = self
+            .history
+            .as_ref()
+            .map(|h| h[i])
+            .filter(|h| h.weight() > 0.0)
+        else {
+            return p.lum_std_error();
+        };
+        let n = self.effective_count(i);
+        if n < 2.0 {
+            return f64::INFINITY;
+        }
+        let y = crate::math::luminance(self.means(i).2.as_vec3()) as f64;
+        let var = ((p.sum_lum2.value() + h.sum_lum2 - n * y * y) / (n - 1.0)).max(0.0);
+        (var / n).sqrt()
+    }
+
+    /// Mean radiance per pixel as interleaved RGB `f32` (3 × pixels), fresh and reused
+    /// samples together.
     pub fn mean_rgb(&self) -> Vec<f32> {
-        self.pixels
-            .iter()
-            .flat_map(|p| p.mean().as_vec3().to_array())
-            .collect()
+        self.interleaved(|m| m.2)
     }
 
     /// Half-buffer A (even samples) mean per pixel as interleaved RGB.
     pub fn mean_rgb_even(&self) -> Vec<f32> {
-        self.pixels
-            .iter()
-            .flat_map(|p| p.mean_even().as_vec3().to_array())
-            .collect()
+        self.interleaved(|m| m.0)
     }
 
     /// Half-buffer B (odd samples) mean per pixel as interleaved RGB.
     pub fn mean_rgb_odd(&self) -> Vec<f32> {
-        self.pixels
-            .iter()
-            .flat_map(|p| p.mean_odd().as_vec3().to_array())
+        self.interleaved(|m| m.1)
+    }
+
+    fn interleaved(&self, pick: impl Fn((DVec3, DVec3, DVec3)) -> DVec3) -> Vec<f32> {
+        (0..self.len())
+            .flat_map(|i| pick(self.means(i)).as_vec3().to_array())
             .collect()
     }
 
@@ -331,6 +416,7 @@ impl Film {
             width,
             height,
             pixels: vec![px; width as usize * height as usize],
+            history: None,
         }
     }
 

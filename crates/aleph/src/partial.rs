@@ -191,6 +191,7 @@ pub fn tile_of(
             width: film.width,
             height: end - start,
             pixels: film.pixels[span.clone()].to_vec(),
+            history: None,
         },
         split: Split::Rows {
             start,

@@ -240,12 +240,11 @@ impl PerceptualCriterion {
                     .map(|(a, b)| 0.5 * (a - b).abs())
                     .collect()
             }
-            ErrorEstimate::StandardError => film
-                .pixels
-                .par_iter()
-                .map(|px| {
-                    if px.n >= 2 {
-                        px.lum_std_error() as f32 * scale
+            ErrorEstimate::StandardError => (0..film.len())
+                .into_par_iter()
+                .map(|i| {
+                    if film.effective_count(i) >= 2.0 {
+                        film.lum_std_error(i) as f32 * scale
                     } else {
                         0.0
                     }
@@ -421,14 +420,13 @@ pub(crate) const NEGLIGIBLE_NOISE_CONTRAST: f32 = 1e-3;
 /// does not look noise-free. Infinite for a pixel with fewer than 2 samples or with noise in a
 /// channel of mean 0.
 pub(crate) fn relative_noise(film: &Film) -> Vec<f32> {
-    let own: Vec<f32> = film
-        .pixels
-        .par_iter()
-        .map(|p| {
-            if p.n < 2 {
+    let own: Vec<f32> = (0..film.len())
+        .into_par_iter()
+        .map(|i| {
+            if film.effective_count(i) < 2.0 {
                 return f32::INFINITY;
             }
-            let (a, b, m) = (p.mean_even(), p.mean_odd(), p.mean());
+            let (a, b, m) = film.means(i);
             (0..3)
                 .map(|c| {
                     let d = 0.5 * (a[c] - b[c]).abs();

@@ -162,6 +162,13 @@ pub fn run_on(
         Some((first, last)) => {
             render_sequence(job, scene, first, last, observer).map(JobReport::Sequence)
         }
+        None if job.sampling.reuse_window.is_some_and(|k| k > 0) => {
+            Err(JobError::Invalid(format!(
+                "{}: --reuse-window needs a sequence (this scene has no [animation] table): \
+                 frames reuse the samples of the frames before them",
+                scene.path.display()
+            )))
+        }
         None => {
             let (settings, look) = job.settings(scene, None)?;
             let stem = job.output.stem.as_deref();
@@ -181,9 +188,24 @@ fn render_frame(
     observer: &dyn Observer,
 ) -> Result<(AdaptiveResult, Vec<u8>), JobError> {
     let result = adaptive(scene, settings, observer)?;
+    let display = deliver_frame(job, scene, settings, look, stem, observer, &result)?;
+    Ok((result, display))
+}
+
+/// Writes a rendered frame to `stem` (if any) and reports it; returns the display image
+/// (empty without a stem).
+fn deliver_frame(
+    job: &RenderJob,
+    scene: &Scene,
+    settings: &AdaptiveSettings,
+    look: Look,
+    stem: Option<&Path>,
+    observer: &dyn Observer,
+    result: &AdaptiveResult,
+) -> Result<Vec<u8>, JobError> {
     let (display, look) = match stem {
         Some(stem) => {
-            let w = write_render(scene, stem, settings, &result, look, job.output.aov)?;
+            let w = write_render(scene, stem, settings, result, look, job.output.aov)?;
             (w.display, w.look)
         }
         None => (Vec::new(), look.describe()),
@@ -191,11 +213,11 @@ fn render_frame(
     observer.frame_done(&FrameDone {
         scene,
         settings,
-        result: &result,
+        result,
         stem,
         look: &look,
     });
-    Ok((result, display))
+    Ok(display)
 }
 
 /// The adaptive loop with the observer's progress.
@@ -213,6 +235,23 @@ fn adaptive(
     )?)
 }
 
+/// The reusing loop with the observer's progress.
+fn reusing(
+    scene: &Scene,
+    settings: &AdaptiveSettings,
+    window: &crate::reuse::ReuseWindow,
+    observer: &dyn Observer,
+) -> Result<AdaptiveResult, JobError> {
+    let frame = Some(scene.frame.index);
+    Ok(crate::adaptive::render_reusing(
+        scene,
+        settings,
+        window,
+        &|p| observer.pass(frame, p),
+        &|n| observer.samples(n),
+    )?)
+}
+
 /// Frames `first..=last`: the viewer's adaptation carried across them, numbered outputs, and
 /// the animated preview and filmstrip.
 fn render_sequence(
@@ -223,22 +262,54 @@ fn render_sequence(
     observer: &dyn Observer,
 ) -> Result<SequenceReport, JobError> {
     let start = Instant::now();
-    let sequence = Sequence::new(scene, first, last)?;
+    let k = job.reuse_window();
+    let anim_first = scene.animation.map_or(first, |a| a.frame_start);
+    let warm = crate::reuse::run_start(first, anim_first, k);
+    let sequence = Sequence::new(scene, warm, last)?;
     observer.sequence_started(first, last);
     let stem = job.output.stem.as_deref();
     let mut displays = Vec::new();
     let (mut samples, mut pixels, mut perception) = (0u64, 0u64, Duration::ZERO);
+    let mut window = crate::reuse::ReuseWindow::new();
     for frame in sequence.frames() {
         let frame = frame?;
-        let (settings, look) = job.settings(&frame.scene, Some(frame.adaptation))?;
-        let fstem = stem.map(|s| numbered(s, frame.index));
-        let (result, display) = render_frame(
+        let run = crate::reuse::run_start(frame.index, anim_first, k);
+        window.keep_from(run);
+        let (mut settings, look) = job.settings(&frame.scene, Some(frame.adaptation))?;
+        let fstem = stem
+            .filter(|_| frame.index >= first)
+            .map(|s| numbered(s, frame.index));
+        let result = if k == 0 {
+            adaptive(&frame.scene, &settings, observer)?
+        } else {
+            settings.budget_spp = job
+                .budget
+                .spp
+                .map(|b| crate::reuse::frame_budget(b, frame.index - run, k));
+            reusing(&frame.scene, &settings, &window, observer)?
+        };
+        if k > 0 && frame.index < last {
+            let g = result
+                .gbuffer
+                .clone()
+                .expect("a rendered frame has a G-buffer");
+            window.push(crate::reuse::FrameSamples::new(
+                frame.index,
+                &result.film,
+                g,
+            ));
+        }
+        if frame.index < first {
+            continue;
+        }
+        let display = deliver_frame(
             job,
             &frame.scene,
             &settings,
             look,
             fstem.as_deref(),
             observer,
+            &result,
         )?;
         samples += result.film.total_samples();
         pixels += result.film.len() as u64;

@@ -126,7 +126,14 @@ pub struct SamplingOptions {
     pub ppd: Option<f64>,
     /// Whether a sequence's velocity map enters the threshold (default true).
     pub use_velocity: bool,
+    /// Reuse across frames: each frame reuses the samples of up to K frames before it
+    /// ([`crate::reuse`]). `None` (default): [`DEFAULT_REUSE_WINDOW`] for a sequence rendered
+    /// by the perceptual sampler without a time budget or split, else 0 (independent frames).
+    pub reuse_window: Option<u32>,
 }
+
+/// The reuse window of a perceptual sequence when the job names none, frames.
+pub const DEFAULT_REUSE_WINDOW: u32 = 7;
 
 impl Default for SamplingOptions {
     fn default() -> Self {
@@ -145,6 +152,7 @@ impl Default for SamplingOptions {
             latitude_ev: a.perceptual.latitude_ev,
             ppd: None,
             use_velocity: a.perceptual.use_velocity,
+            reuse_window: None,
         }
     }
 }
@@ -388,7 +396,56 @@ impl RenderJob {
         if let Some(split) = self.split {
             self.validate_split(split)?;
         }
+        self.validate_reuse()
+    }
+
+    fn validate_reuse(&self) -> Result<(), JobError> {
+        let Some(k) = self.sampling.reuse_window.filter(|&k| k > 0) else {
+            return Ok(());
+        };
+        let bad = |m: String| Err(JobError::Invalid(m));
+        if k > crate::reuse::MAX_WINDOW {
+            return bad(format!(
+                "sampling.reuse_window (--reuse-window) must be at most {} frames, got {k}",
+                crate::reuse::MAX_WINDOW
+            ));
+        }
+        if self.criterion != Criterion::Perceptual {
+            return bad(format!(
+                "--reuse-window {k}: reuse across frames takes the perceptual sampler (the {} \
+                 sampler renders independent frames: it is a baseline)",
+                self.criterion.name()
+            ));
+        }
+        if self.budget.time_s.is_some() {
+            return bad(format!(
+                "--reuse-window {k} and --time exclude each other: a frame's time budget \
+                 cannot be kept while earlier frames decide its samples (give --reuse-window 0)"
+            ));
+        }
+        if self.split.is_some() {
+            return bad(format!(
+                "--reuse-window {k} and --part/--tile exclude each other: a split frame \
+                 renders on its own (a farm splits a reusing sequence into runs of frames)"
+            ));
+        }
         Ok(())
+    }
+
+    /// The reuse window this job renders a sequence with: the job's, or by default
+    /// [`DEFAULT_REUSE_WINDOW`] for the perceptual sampler without a time budget or split,
+    /// else 0.
+    pub fn reuse_window(&self) -> u32 {
+        match self.sampling.reuse_window {
+            Some(k) => k,
+            None if self.criterion == Criterion::Perceptual
+                && self.budget.time_s.is_none()
+                && self.split.is_none() =>
+            {
+                DEFAULT_REUSE_WINDOW
+            }
+            None => 0,
+        }
     }
 
     fn validate_split(&self, split: Split) -> Result<(), JobError> {

@@ -1,0 +1,263 @@
+//! The adaptive loop of a frame that reuses earlier frames' samples ([`crate::reuse`]).
+//!
+//! 1. The window's frames are reprojected into this frame (G-buffer validation).
+//! 2. A first pass of fresh samples everywhere (1 spp, 2 from a budget of 4): every pixel keeps
+//!    a fresh estimate, and the test of each reprojected frame against it drops history where
+//!    light changed on unchanged surfaces. The test is repeated after every pass with all the
+//!    fresh samples so far, which resolve smaller changes.
+//! 3. Then, pass by pass, the perceptual criterion judges the combined estimate (fresh and
+//!    reused, half-buffer error plus the test's bias bound, against the velocity-aware
+//!    threshold map) and the pixels whose error is visible get about n_eff (r² − 1) more fresh
+//!    samples (at most doubling their effective count n_eff = fresh + reused per pass, at most
+//!    [`REUSE_CAP_SHARE`] × the frame's budget in all).
+//! 4. Under a budget, once nothing is visible, the rest is spent raising the pixels with the
+//!    fewest effective samples to one level (water-filling), which evens out the noise between
+//!    disoccluded and reused pixels. Without a budget the loop stops at the converged fraction.
+
+use super::allocate::{Allocation, fit_to_budget, stratified_floor};
+use super::criterion::Judge;
+use super::{
+    AdaptiveError, AdaptiveResult, AdaptiveSettings, Criterion, LoopState, PassReport, ReuseReport,
+    StopReason, judge_for,
+};
+use crate::film::Film;
+use crate::gbuffer::GBuffer;
+use crate::integrator::{Integrator, Strategy};
+use crate::render::render_counts;
+use crate::reuse::ReuseWindow;
+use crate::scene::Scene;
+use crate::velocity::render_velocity;
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// Under a per-frame budget B no pixel gets more than REUSE_CAP_SHARE · B fresh samples
+/// (rounded down to a stratified total, never past `max_spp`): a disoccluded pixel has no
+/// history and may need many times the budget to match its reused neighbours.
+pub const REUSE_CAP_SHARE: f64 = 8.0;
+
+/// Most passes after the first.
+const MAX_PASSES: usize = 8;
+
+/// Renders `scene`'s current frame reusing the samples of the frames in `window`
+/// (the perceptual criterion only; see the module docs). `s.budget_spp` is the frame's budget
+/// of *fresh* samples; `None` renders until the converged fraction.
+///
+/// # Errors
+/// As [`super::render_adaptive`]; also [`AdaptiveError::Settings`] for a criterion other than
+/// the perceptual one.
+pub fn render_reusing(
+    scene: &Scene,
+    s: &AdaptiveSettings,
+    window: &ReuseWindow,
+    progress: &(dyn Fn(&PassReport) + Sync),
+    sample_progress: &(dyn Fn(u64) + Sync),
+) -> Result<AdaptiveResult, AdaptiveError> {
+    s.validate()?;
+    if s.criterion != Criterion::Perceptual || s.rows.is_some() {
+        return Err(AdaptiveError::Settings(
+            "reuse across frames takes the perceptual sampler on whole frames".into(),
+        ));
+    }
+    let start = Instant::now();
+    let integrator = Integrator {
+        max_depth: scene.settings.max_depth,
+        strategy: Strategy::Mis,
+    };
+    let velocity = render_velocity(scene);
+    let gbuffer = GBuffer::render(scene);
+    let t_reuse = Instant::now();
+    let reprojected = window.reproject(scene, &gbuffer);
+    let mut reuse_time = t_reuse.elapsed();
+    let mut st = LoopState::new(scene, s)?;
+    let n_px = st.film.len();
+    let budget_total = s.budget_spp.map(|b| (b * n_px as f64).round() as u64);
+    let first = vec![first_pass_spp(s.budget_spp); n_px];
+    let pass = render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
+    st.unreported_render = pass.wall;
+    st.stats += pass;
+    let t_test = Instant::now();
+    let mut tested = reprojected.test(&st.film);
+    st.film.history = Some(std::mem::take(&mut tested.history));
+    reuse_time += t_test.elapsed();
+    let t_setup = Instant::now();
+    let mut judge = judge_for(scene, s, velocity.as_ref(), &st.film)?;
+    st.decision_time += t_setup.elapsed();
+    let cap = match s.budget_spp {
+        Some(b) => stratified_floor(REUSE_CAP_SHARE * b).min(s.max_spp),
+        None => s.max_spp,
+    };
+    let (judgement, stop) = loop {
+        let t0 = Instant::now();
+        let (mut judgement, guide_time) = judge.judge(scene, &st.film, s)?;
+        add_bias(
+            &mut judgement.error,
+            &tested.bias,
+            scene.settings.luminance_scale,
+        );
+        let noise = judge.relative_noise(&st.film);
+        let ratio = Judge::ratio(&judgement, noise.as_deref());
+        st.decision_time += t0.elapsed().saturating_sub(guide_time);
+        let converged = st.report(&ratio, progress);
+        let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
+        if remaining.is_some_and(|r| (r as f64) < 0.002 * n_px as f64) {
+            break (judgement, StopReason::Budget);
+        }
+        if remaining.is_none() && converged >= s.converged_fraction {
+            break (judgement, StopReason::Converged);
+        }
+        if st.passes.len() > MAX_PASSES {
+            let reason = if remaining.is_some() {
+                StopReason::Budget
+            } else {
+                StopReason::MaxSpp
+            };
+            break (judgement, reason);
+        }
+        let mut alloc = plan(&st.film, &ratio, cap);
+        if let Some(rem) = remaining {
+            if alloc.total() == 0 || converged >= s.converged_fraction {
+                water_fill(&mut alloc, &st.film, &ratio, rem, cap);
+            }
+            fit_to_budget(&mut alloc, &st.film, &ratio, rem, cap);
+        }
+        if alloc.total() == 0 {
+            let reason = if converged >= s.converged_fraction {
+                StopReason::Converged
+            } else {
+                StopReason::MaxSpp
+            };
+            break (judgement, reason);
+        }
+        let pass = render_counts(
+            scene,
+            &integrator,
+            &mut st.film,
+            &alloc.want,
+            sample_progress,
+        );
+        st.unreported_render = pass.wall;
+        st.stats += pass;
+        // The test again, with every fresh sample so far: more of them resolve smaller changes.
+        let t_test = Instant::now();
+        st.film.history = None;
+        tested = reprojected.test(&st.film);
+        st.film.history = Some(std::mem::take(&mut tested.history));
+        reuse_time += t_test.elapsed();
+    };
+    let reuse = reuse_report(&st.film, window.len(), reuse_time);
+    let converged_fraction = st.passes.last().map_or(0.0, |p| p.converged_fraction);
+    Ok(AdaptiveResult {
+        film: st.film,
+        stats: st.stats,
+        guide_stats: judge.guide_stats(),
+        passes: st.passes,
+        stop,
+        converged_fraction,
+        threshold: Some(judgement.threshold),
+        error: Some(judgement.error),
+        units: s.units(),
+        decision_time: st.decision_time,
+        wall: start.elapsed(),
+        velocity,
+        gbuffer: Some(gbuffer),
+        reuse: Some(reuse),
+    })
+}
+
+/// Fresh samples per pixel of the first pass: 2 from a budget of 4 spp (both half-buffers
+/// fresh), else 1.
+fn first_pass_spp(budget: Option<f64>) -> u32 {
+    match budget {
+        Some(b) if b < 4.0 => 1,
+        _ => 2,
+    }
+}
+
+/// error ← √(error² + bias²), the bias bound of the reuse test in scene cd/m².
+fn add_bias(error: &mut [f32], bias: &[f32], luminance_scale: f32) {
+    error
+        .par_iter_mut()
+        .zip(bias.par_iter())
+        .for_each(|(e, &b)| {
+            let b = b * luminance_scale;
+            *e = (*e * *e + b * b).sqrt();
+        });
+}
+
+/// Pixels above threshold get about n_eff (r² − 1) more fresh samples, at most n_eff (one
+/// doubling of the effective count) and never past `cap` fresh samples.
+fn plan(film: &Film, ratio: &[f32], cap: u32) -> Allocation {
+    let want: Vec<u32> = (0..film.len())
+        .into_par_iter()
+        .map(|i| {
+            let r = ratio[i];
+            let n = film.pixels[i].count();
+            if r <= 1.0 || n >= cap {
+                return 0;
+            }
+            let eff = film.effective_count(i).max(1.0);
+            let q = r.min(1e3) as f64;
+            let c = (eff * (q * q - 1.0)).ceil().min(eff.ceil()).max(1.0);
+            (c as u32).min(cap - n)
+        })
+        .collect();
+    let reopen = want.iter().map(|&c| c > 0).collect();
+    Allocation { want, reopen }
+}
+
+/// Spends up to `remaining` samples raising the pixels with noise (ratio > 0) and the fewest
+/// effective samples to a common level (never past `cap` fresh samples).
+fn water_fill(alloc: &mut Allocation, film: &Film, ratio: &[f32], remaining: u64, cap: u32) {
+    let spare = remaining.saturating_sub(alloc.total());
+    let open: Vec<(usize, f64, u32)> = (0..film.len())
+        .filter(|&i| ratio[i] > 0.0)
+        .map(|i| {
+            let n = film.pixels[i].count() + alloc.want[i];
+            (
+                i,
+                film.effective_count(i) + alloc.want[i] as f64,
+                cap.saturating_sub(n),
+            )
+        })
+        .filter(|&(_, _, room)| room > 0)
+        .collect();
+    if open.is_empty() || spare == 0 {
+        return;
+    }
+    let cost = |level: f64| -> u64 {
+        open.iter()
+            .map(|&(_, eff, room)| ((level - eff).ceil().max(0.0) as u64).min(room as u64))
+            .sum()
+    };
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    while cost(hi) <= spare && hi < 1e9 {
+        lo = hi;
+        hi *= 2.0;
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if cost(mid) <= spare {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    for &(i, eff, room) in &open {
+        let c = ((lo - eff).ceil().max(0.0) as u32).min(room);
+        if c > 0 {
+            alloc.want[i] += c;
+            alloc.reopen[i] = true;
+        }
+    }
+}
+
+fn reuse_report(film: &Film, frames: usize, time: Duration) -> ReuseReport {
+    let n = film.len().max(1) as f64;
+    let weights: Vec<f64> = (0..film.len()).map(|i| film.history_weight(i)).collect();
+    ReuseReport {
+        frames,
+        mean_history_spp: weights.iter().sum::<f64>() / n,
+        reused_fraction: weights.iter().filter(|&&w| w > 0.0).count() as f64 / n,
+        time,
+    }
+}

@@ -1,0 +1,542 @@
+//! Reuse across frames: each frame of a sequence starts from the samples the frames before it
+//! traced on the same surfaces (Myszkowski, Rokita & Tawara 1999; DESIGN.md §12).
+//!
+//! # What is reused
+//! The *fresh* samples of each of the last K frames (the window, [`ReuseWindow`]), kept per
+//! pixel as half-buffer sums, are reprojected directly into the current frame, each frame
+//! once: pixel p's surface x (the G-buffer's hit at the pixel centre, carried with its
+//! object) is projected by frame j's camera at frame j's instant, and frame j's sums are
+//! resampled there bilinearly over the neighbours that saw the same surface. Reprojecting every
+//! window frame directly, rather than the previous frame's accumulated image, resamples each
+//! sample once: chained bilinear resampling blurs a panning image a little more every frame
+//! (the variance of the blur grows by up to ¼ px² per step).
+//!
+//! A frame is not reused at p when the view of x turned by more than x's surface allows
+//! ([`crate::gbuffer::GBuffer::reuse_angle`]: glossy lobes, mirrors and glass are
+//! view-dependent) or when the surface area a pixel covers there changed by more than
+//! [`MAX_FOOTPRINT_RATIO`] either way (a pixel's mean is its footprint's average). A neighbour
+//! k of frame j is valid for x when
+//! - it saw the same object and material;
+//! - it does not straddle an edge ([`crate::gbuffer::GBuffer::edge`]) unless the view is
+//!   unchanged: its samples mix surfaces in proportions that any shift changes;
+//! - its surface point lies within [`PLANE_TOLERANCE`] · depth of x's tangent plane and its
+//!   normal within [`NORMAL_TOLERANCE_DEG`] of x's;
+//! - in a scene where anything but the camera moves, its direct light
+//!   ([`crate::gbuffer::GBuffer::direct`], the same fixed light samples in every frame) is
+//!   within [`DIRECT_TOLERANCE`] of x's now: a moving shadow or a light uncovered changes it.
+//!   The share kept falls linearly with the change.
+//!
+//! Valid neighbours are weighted bilinearly and renormalised; under [`MIN_COVERAGE`] of the
+//! bilinear weight valid, nothing is reused (a disocclusion).
+//!
+//! # What is tested
+//! Where only the camera moves, light on a surface cannot change, and nothing more is tested.
+//! Otherwise the G-buffer still cannot see indirect light that changes on an unchanged surface
+//! (a moving object's bounce light, a light uncovered seen only through bounces). The frame's
+//! fresh samples test each reprojected frame ([`Reprojected::test`], after every pass): over
+//! the 3 × 3, 9 × 9 and 27 × 27 pixels around p ([`TEST_RADII`]), the fresh and the reused
+//! mean luminance (each pixel weighing the same) differ by z standard errors (per-sample
+//! variance from the pixels' own samples); a frame with z ≥ [`Z_REJECT`] at any scale is
+//! dropped at p, and weighted down linearly from [`Z_ACCEPT`]. What the test cannot resolve,
+//! the disagreement beyond two standard errors, is kept as a bias bound and added to the
+//! pixel's error ([`Tested::bias`]), so the perceptual criterion sends fresh samples where reuse
+//! may be wrong.
+//!
+//! # The window
+//! A frame depends on at most K frames before it: frames are grouped from the animation's
+//! first frame into runs of K + 1 ([`run_start`]); the first of a run (a keyframe) reuses
+//! nothing and later ones reuse the run's earlier frames. Any frame renders alone after at
+//! most K warm-up frames, and a run is the unit a farm hands out. K = 0 gives independent
+//! frames.
+
+use crate::film::{Film, HistoryPixel};
+use crate::gbuffer::GBuffer;
+use crate::scene::Scene;
+use glam::{DVec3, Vec2};
+use rayon::prelude::*;
+use std::collections::VecDeque;
+
+/// Largest distance of a neighbour's surface point from x's tangent plane, as a fraction of
+/// x's depth.
+pub const PLANE_TOLERANCE: f32 = 0.01;
+
+/// Largest angle between a neighbour's normal and x's, degrees (DESIGN.md §12: ~25°).
+pub const NORMAL_TOLERANCE_DEG: f32 = 25.0;
+
+/// Relative change of a surface point's direct light (its [`GBuffer::direct`] signature) at
+/// which its history is dropped; smaller changes keep a linearly falling share. A change of a
+/// few percent in a smooth region is visible (the contrast threshold is 1–2 %), so the share
+/// falls fast; 32 fixed light samples resolve visibility in steps of 1/32, so a still
+/// penumbra's neighbours, a step or two apart, keep half or more.
+pub const DIRECT_TOLERANCE: f32 = 0.1;
+
+/// A reprojection within this distance (pixels) of a pixel centre takes that pixel alone.
+pub const SNAP_PIXELS: f32 = 1e-3;
+
+/// Largest change of the surface area one pixel covers (either way) under which a frame is
+/// reused: a pixel's mean is its footprint's average, so a footprint scaled by more averages
+/// the surface's gradients differently (a cut to a closer or more oblique view).
+pub const MAX_FOOTPRINT_RATIO: f32 = 1.25;
+
+/// Least share of the bilinear weight that must be valid for a frame to be reused at a pixel.
+pub const MIN_COVERAGE: f32 = 0.25;
+
+/// z below which a reprojected frame is kept whole.
+pub const Z_ACCEPT: f64 = 1.0;
+
+/// z from which a reprojected frame is dropped.
+pub const Z_REJECT: f64 = 3.0;
+
+/// The largest reuse window, frames.
+pub const MAX_WINDOW: u32 = 64;
+
+/// The first frame of the run of K + 1 frames that `frame` belongs to (runs start at the
+/// animation's first frame `first`); `frame` itself for K = 0.
+pub fn run_start(frame: i64, first: i64, k: u32) -> i64 {
+    let len = k as i64 + 1;
+    first + (frame - first).div_euclid(len) * len
+}
+
+/// Share of a run's fresh samples its keyframe takes, as a multiple of the mean budget: the
+/// keyframe has nothing to reuse.
+pub const KEYFRAME_FACTOR: f64 = 1.0;
+
+/// The fresh budget (spp) of the frame at `position` (0 = the keyframe) of a run of K + 1
+/// frames whose mean fresh budget is `mean`: the keyframe takes [`KEYFRAME_FACTOR`] × the
+/// mean (at most the run's whole budget), the others share the rest evenly; at least 1.
+pub fn frame_budget(mean: f64, position: i64, k: u32) -> f64 {
+    if k == 0 {
+        return mean;
+    }
+    let run = mean * (k as f64 + 1.0);
+    let key = (KEYFRAME_FACTOR * mean).min(run - k as f64);
+    let b = if position == 0 {
+        key
+    } else {
+        (run - key) / k as f64
+    };
+    b.max(1.0)
+}
+
+/// One frame's fresh samples, compact, with its G-buffer: what later frames reuse.
+#[derive(Clone, Debug)]
+pub struct FrameSamples {
+    /// The frame number.
+    pub index: i64,
+    /// The frame's G-buffer.
+    pub gbuffer: GBuffer,
+    /// Per pixel: sums of even and odd samples (RGB), their counts, Σ Y².
+    sums: Vec<Compact>,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Compact {
+    even: [f32; 3],
+    odd: [f32; 3],
+    n_even: f32,
+    n_odd: f32,
+    lum2: f32,
+}
+
+impl FrameSamples {
+    /// Keeps `film`'s fresh samples (its history is not kept: each frame is reprojected once).
+    pub fn new(index: i64, film: &Film, gbuffer: GBuffer) -> FrameSamples {
+        let sums = film
+            .pixels
+            .iter()
+            .map(|p| Compact {
+                even: p.sum_even.value().as_vec3().to_array(),
+                odd: p.sum_odd.value().as_vec3().to_array(),
+                n_even: p.n_even() as f32,
+                n_odd: p.n_odd() as f32,
+                lum2: p.sum_lum2.value() as f32,
+            })
+            .collect();
+        FrameSamples {
+            index,
+            gbuffer,
+            sums,
+        }
+    }
+}
+
+/// The last K frames' fresh samples.
+#[derive(Clone, Debug, Default)]
+pub struct ReuseWindow {
+    frames: VecDeque<FrameSamples>,
+}
+
+impl ReuseWindow {
+    /// An empty window.
+    pub fn new() -> ReuseWindow {
+        ReuseWindow::default()
+    }
+
+    /// Adds a frame's samples.
+    pub fn push(&mut self, f: FrameSamples) {
+        self.frames.push_back(f);
+    }
+
+    /// Forgets every frame before `first`.
+    pub fn keep_from(&mut self, first: i64) {
+        self.frames.retain(|f| f.index >= first);
+    }
+
+    /// Frames held.
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// Whether it holds no frame.
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// Reprojects every held frame into `scene`'s current frame, whose G-buffer is `g`.
+    pub fn reproject(&self, scene: &Scene, g: &GBuffer) -> Reprojected {
+        let frames = self
+            .frames
+            .iter()
+            .map(|f| reproject_frame(scene, g, f))
+            .collect();
+        Reprojected {
+            frames,
+            width: g.width,
+            height: g.height,
+            still_light: !scene.geometry.has_motion(),
+        }
+    }
+}
+
+/// The window's frames reprojected into the current frame (before the test against its fresh
+/// samples).
+#[derive(Clone, Debug)]
+pub struct Reprojected {
+    /// Per window frame, per pixel: the resampled sums (weight 0 where nothing is reused).
+    frames: Vec<Vec<HistoryPixel>>,
+    width: usize,
+    height: usize,
+    /// Nothing but the camera moves: light cannot change on a surface, so nothing is tested.
+    still_light: bool,
+}
+
+/// What the test of a [`Reprojected`] window against a frame's fresh samples keeps.
+#[derive(Clone, Debug)]
+pub struct Tested {
+    /// Per pixel: the sum over the window's frames, each weighted by the share the test kept
+    /// (the film's history).
+    pub history: Vec<HistoryPixel>,
+    /// Per pixel: the disagreement between fresh and reused luminance that noise does not
+    /// explain (relative luminance Y, as the film), the reuse's bias bound.
+    pub bias: Vec<f32>,
+}
+
+impl Reprojected {
+    /// Tests each reprojected frame against `fresh` (the current frame's fresh samples so far;
+    /// see the module docs): weights it down where they disagree, and bounds the bias of what
+    /// is kept.
+    pub fn test(&self, fresh: &Film) -> Tested {
+        let (w, h) = (self.width, self.height);
+        assert_eq!((w, h), (fresh.width as usize, fresh.height as usize));
+        let fresh_y: Vec<Moments> = fresh
+            .pixels
+            .iter()
+            .map(|p| Moments::of(luminance(p.sum()), p.count() as f64, p.sum_lum2.value()))
+            .collect();
+        let mut bias = vec![0f32; w * h];
+        let mut history = vec![HistoryPixel::default(); w * h];
+        if self.still_light {
+            for f in &self.frames {
+                history.iter_mut().zip(f).for_each(|(h, p)| add(h, p, 1.0));
+            }
+            return Tested { history, bias };
+        }
+        for f in &self.frames {
+            let reused: Vec<Moments> = f
+                .iter()
+                .map(|p| Moments::of(luminance(p.sum_even + p.sum_odd), p.weight(), p.sum_lum2))
+                .collect();
+            let scales: Vec<Pooled> = TEST_RADII
+                .iter()
+                .map(|&r| Pooled::new(&fresh_y, &reused, w, h, r))
+                .collect();
+            let verdicts: Vec<(f64, f32)> = (0..w * h)
+                .into_par_iter()
+                .map(|i| {
+                    if reused[i].n <= 0.0 {
+                        return (0.0, 0.0);
+                    }
+                    let start = (1.0f64, 0.0f32);
+                    scales
+                        .iter()
+                        .map(|p| p.verdict(i))
+                        .fold(start, |a, b| (a.0.min(b.0), a.1.max(b.1)))
+                })
+                .collect();
+            for (i, (keep, b)) in verdicts.into_iter().enumerate() {
+                if keep > 0.0 {
+                    add(&mut history[i], &f[i], keep);
+                    bias[i] = bias[i].max(b);
+                }
+            }
+        }
+        Tested { history, bias }
+    }
+}
+
+/// Radii (pixels) of the square neighbourhoods over which fresh and reused luminance are
+/// compared: 3 × 3, 9 × 9 and 27 × 27 pixels. At 1–2 fresh spp the 3 × 3 test resolves only
+/// changes of about the per-sample noise (a path-traced sample's luminance varies by 1–3× its
+/// mean on the Cornell box); the larger ones pool 10–700 times more samples and find the
+/// changes of indirect light that spread over a region (a light switched on, a moving object's
+/// bounce light), at the cost of locating them to the region.
+pub const TEST_RADII: [usize; 3] = [1, 4, 13];
+
+/// Luminance sums and count of a set of samples, and their within-pixel sum of squared
+/// deviations and its degrees of freedom.
+#[derive(Clone, Copy, Default)]
+struct Moments {
+    sum: f64,
+    n: f64,
+    within: f64,
+    dof: f64,
+}
+
+impl Moments {
+    fn of(sum: f64, n: f64, sum2: f64) -> Moments {
+        let (within, dof) = if n > 1.0 {
+            ((sum2 - sum * sum / n).max(0.0), n - 1.0)
+        } else {
+            (0.0, 0.0)
+        };
+        Moments {
+            sum,
+            n,
+            within,
+            dof,
+        }
+    }
+}
+
+/// Per pixel where the frame is reused: the fresh and the reused mean luminance and the
+/// variance of their difference, each summed over the pixel's (2r + 1)² neighbourhood with the
+/// number of pixels summed. Every pixel weighs the same on both sides, so the two pooled means
+/// estimate the same average whatever the sample counts (weighting by samples would compare
+/// the history's adaptively sampled pixels against the fresh pass's uniform ones).
+struct Pooled {
+    fresh: Vec<f64>,
+    reused: Vec<f64>,
+    var: Vec<f64>,
+    pixels: Vec<f64>,
+}
+
+impl Pooled {
+    fn new(fresh: &[Moments], reused: &[Moments], w: usize, h: usize, r: usize) -> Pooled {
+        let terms: Vec<[f64; 4]> = fresh
+            .iter()
+            .zip(reused)
+            .map(|(f, h)| {
+                let dof = f.dof + h.dof;
+                if f.n <= 0.0 || h.n <= 0.0 || dof <= 0.0 {
+                    return [0.0; 4];
+                }
+                let s2 = (f.within + h.within) / dof;
+                [f.sum / f.n, h.sum / h.n, s2 * (1.0 / f.n + 1.0 / h.n), 1.0]
+            })
+            .collect();
+        let plane = |k: usize| box_sums(&terms.iter().map(|t| t[k]).collect::<Vec<_>>(), w, h, r);
+        Pooled {
+            fresh: plane(0),
+            reused: plane(1),
+            var: plane(2),
+            pixels: plane(3),
+        }
+    }
+
+    /// The share of the reprojected frame kept at pixel `i`, and the disagreement bound (Y).
+    fn verdict(&self, i: usize) -> (f64, f32) {
+        let n = self.pixels[i];
+        if n <= 0.0 {
+            return (1.0, 0.0);
+        }
+        let diff = (self.fresh[i] - self.reused[i]).abs() / n;
+        let se = self.var[i].max(0.0).sqrt() / n;
+        let z = if se > 0.0 {
+            diff / se
+        } else if diff > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        };
+        let keep = ((Z_REJECT - z) / (Z_REJECT - Z_ACCEPT)).clamp(0.0, 1.0);
+        let bias = if keep > 0.0 {
+            (diff - 2.0 * se).max(0.0)
+        } else {
+            0.0
+        };
+        (keep, bias as f32)
+    }
+}
+
+/// Sums of `v` over each pixel's (2r + 1)² neighbourhood clipped to the image (a summed-area
+/// table, Crow 1984).
+fn box_sums(v: &[f64], w: usize, h: usize, r: usize) -> Vec<f64> {
+    let mut sat = vec![0f64; (w + 1) * (h + 1)];
+    for y in 0..h {
+        let mut row = 0.0;
+        for x in 0..w {
+            row += v[y * w + x];
+            sat[(y + 1) * (w + 1) + x + 1] = sat[y * (w + 1) + x + 1] + row;
+        }
+    }
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let (x0, y0) = (x.saturating_sub(r), y.saturating_sub(r));
+            let (x1, y1) = ((x + r + 1).min(w), (y + r + 1).min(h));
+            let at = |x: usize, y: usize| sat[y * (w + 1) + x];
+            at(x1, y1) - at(x0, y1) - at(x1, y0) + at(x0, y0)
+        })
+        .collect()
+}
+
+fn luminance(v: DVec3) -> f64 {
+    crate::math::luminance(v.as_vec3()) as f64
+}
+
+fn add(h: &mut HistoryPixel, o: &HistoryPixel, k: f64) {
+    h.sum_even += o.sum_even * k;
+    h.sum_odd += o.sum_odd * k;
+    h.n_even += o.n_even * k;
+    h.n_odd += o.n_odd * k;
+    h.sum_lum2 += o.sum_lum2 * k;
+}
+
+fn scale(h: &mut HistoryPixel, k: f64) {
+    if k != 1.0 {
+        let mut s = HistoryPixel::default();
+        add(&mut s, h, k);
+        *h = s;
+    }
+}
+
+/// Frame `f`'s fresh samples resampled at each pixel of the frame whose G-buffer is `g`.
+fn reproject_frame(scene: &Scene, g: &GBuffer, f: &FrameSamples) -> Vec<HistoryPixel> {
+    let cos_normal = NORMAL_TOLERANCE_DEG.to_radians().cos();
+    (0..g.width * g.height)
+        .into_par_iter()
+        .map(|i| {
+            let Some(sight) = g.sight(scene, i, f.gbuffer.time) else {
+                return HistoryPixel::default();
+            };
+            if sight.turn > g.reuse_angle[i]
+                || !(1.0 / MAX_FOOTPRINT_RATIO..=MAX_FOOTPRINT_RATIO)
+                    .contains(&sight.footprint_ratio)
+            {
+                return HistoryPixel::default();
+            }
+            let moved = sight.raster.distance(Vec2::new(
+                (i % g.width) as f32 + 0.5,
+                (i / g.width) as f32 + 0.5,
+            )) > SNAP_PIXELS;
+            let valid = |k: usize| -> f32 {
+                let o = &f.gbuffer;
+                if o.object[k] != g.object[i] || o.material[k] != g.material[i] {
+                    return 0.0;
+                }
+                if moved && o.edge[k] {
+                    return 0.0;
+                }
+                if g.is_background(i) {
+                    return 1.0;
+                }
+                let off = (o.position[k] - sight.point).dot(sight.normal).abs();
+                if off > PLANE_TOLERANCE * g.depth[i]
+                    || o.normal_at(k).dot(sight.normal) < cos_normal
+                {
+                    return 0.0;
+                }
+                match (g.direct.get(i), o.direct.get(k)) {
+                    (Some(&a), Some(&b)) => direct_light_share(a, b),
+                    _ => 1.0,
+                }
+            };
+            resample(f, sight.raster, valid)
+        })
+        .collect()
+}
+
+/// The share of a neighbour's samples kept when the direct-light signatures
+/// ([`GBuffer::direct`]) of the two frames are `a` and `b`: 1 when equal (or both NaN: lit by
+/// the static scene alone), falling linearly to 0 at a relative change of
+/// [`DIRECT_TOLERANCE`]; 0 when only one is NaN.
+fn direct_light_share(a: f32, b: f32) -> f32 {
+    match (a.is_nan(), b.is_nan()) {
+        // Both lit by the static scene alone: unchanged.
+        (true, true) => return 1.0,
+        // One near a moving object, one not: nothing to compare, so nothing kept.
+        (true, false) | (false, true) => return 0.0,
+        _ => {}
+    }
+    let m = a.max(b);
+    if m <= 0.0 {
+        return 1.0;
+    }
+    (1.0 - (a - b).abs() / (DIRECT_TOLERANCE * m)).clamp(0.0, 1.0)
+}
+
+/// Bilinear resampling of `f`'s sums at raster position `r` over the neighbours `valid`
+/// accepts (a share in [0, 1] each): the bilinear weights of the accepted neighbours are
+/// renormalised to 1 (nothing under [`MIN_COVERAGE`]) and each neighbour's samples then
+/// count with its share.
+fn resample(f: &FrameSamples, r: Vec2, valid: impl Fn(usize) -> f32) -> HistoryPixel {
+    let (w, h) = (f.gbuffer.width as i64, f.gbuffer.height as i64);
+    let q = r - Vec2::splat(0.5);
+    let (x0, y0) = (q.x.floor(), q.y.floor());
+    // A reprojection within 1/1000 pixel of a pixel centre takes that pixel alone, so a still
+    // camera reuses every sample unblurred.
+    let snap = |t: f32| {
+        if t < SNAP_PIXELS {
+            0.0
+        } else if t > 1.0 - SNAP_PIXELS {
+            1.0
+        } else {
+            t
+        }
+    };
+    let (fx, fy) = (snap(q.x - x0), snap(q.y - y0));
+    let mut out = HistoryPixel::default();
+    let mut covered = 0f32;
+    for (dx, dy, wt) in [
+        (0, 0, (1.0 - fx) * (1.0 - fy)),
+        (1, 0, fx * (1.0 - fy)),
+        (0, 1, (1.0 - fx) * fy),
+        (1, 1, fx * fy),
+    ] {
+        let (x, y) = (x0 as i64 + dx, y0 as i64 + dy);
+        if wt <= 0.0 || x < 0 || y < 0 || x >= w || y >= h {
+            continue;
+        }
+        let k = (y * w + x) as usize;
+        let share = valid(k);
+        if share <= 0.0 {
+            continue;
+        }
+        let c = &f.sums[k];
+        let px = HistoryPixel {
+            sum_even: DVec3::from_array(c.even.map(f64::from)),
+            sum_odd: DVec3::from_array(c.odd.map(f64::from)),
+            n_even: c.n_even as f64,
+            n_odd: c.n_odd as f64,
+            sum_lum2: c.lum2 as f64,
+        };
+        add(&mut out, &px, (wt * share) as f64);
+        covered += wt;
+    }
+    if covered < MIN_COVERAGE {
+        return HistoryPixel::default();
+    }
+    scale(&mut out, 1.0 / covered as f64);
+    out
+}

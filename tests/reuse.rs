@@ -1,0 +1,477 @@
+//! Reuse across frames (`aleph::reuse`): reused samples have the mean of more samples, a pan
+//! reprojects a textured wall onto itself, history is rejected where it would be wrong
+//! (disocclusion, view-dependent surfaces, a cut, a light switched on), frames render alone
+//! with their warm-up, and bad windows are refused.
+
+use crate::util::*;
+use aleph::adaptive::{AdaptiveResult, Criterion};
+use aleph::job::{self, FrameDone, Observer, RenderJob};
+use aleph::math::luminance;
+use aleph::scene::Scene;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Keeps every frame's result.
+#[derive(Default)]
+struct Keep(Mutex<Vec<(i64, AdaptiveResult)>>);
+
+impl Observer for Keep {
+    fn frame_done(&self, d: &FrameDone<'_>) {
+        let mut v = self.0.lock().unwrap();
+        v.push((d.scene.frame.index, d.result.clone()));
+    }
+}
+
+impl Keep {
+    fn frame(&self, f: i64) -> AdaptiveResult {
+        let v = self.0.lock().unwrap();
+        v.iter().find(|(i, _)| *i == f).unwrap().1.clone()
+    }
+}
+
+/// Renders `job` and keeps its frames.
+fn run(job: &RenderJob) -> Keep {
+    let keep = Keep::default();
+    job::run(job, &keep).unwrap();
+    keep
+}
+
+/// The bundled Cornell box as a sequence whose camera and objects are still: frames 0–5 at
+/// 24 fps, `res`², depth 4. `extra` is appended (camera keys, meshes).
+fn cornell_sequence(dir: &Path, res: u32, camera: &str, extra: &str) -> PathBuf {
+    let obj = repo("scenes/cornell-box/CornellBox-Original.obj");
+    let toml = format!(
+        "[camera]\n{camera}\nvfov_deg = 39.3077\nresolution = [{res}, {res}]\n\
+         [render]\nmax_depth = 4\n[animation]\nfps = 24.0\nframes = [0, 5]\n\
+         [[mesh]]\nfile = {obj:?}\n{extra}"
+    );
+    write_files(dir, &[("scene.toml", &toml)]);
+    dir.join("scene.toml")
+}
+
+const STILL_CAMERA: &str = "position = [0.0, 0.989, 3.883]\nlook_at = [0.0, 0.989, 0.0]";
+
+fn job(scene: &Path, k: u32, spp: f64, frames: [i64; 2]) -> RenderJob {
+    let mut job = RenderJob::new(scene);
+    job.criterion = Criterion::Perceptual;
+    job.frames = Some(frames);
+    job.budget.spp = Some(spp);
+    job.sampling.reuse_window = Some(k);
+    job
+}
+
+/// Per-block luminance means and their standard errors (blocks of `b`×`b` pixels) of a film's
+/// combined estimate: pixel means averaged, variances of the means summed.
+fn block_stats(r: &AdaptiveResult, b: usize) -> Vec<(f64, f64)> {
+    let film = &r.film;
+    let (w, h) = (film.width as usize, film.height as usize);
+    let mut out = Vec::new();
+    for by in 0..h / b {
+        for bx in 0..w / b {
+            let (mut m, mut v) = (0.0, 0.0);
+            for y in by * b..(by + 1) * b {
+                for x in bx * b..(bx + 1) * b {
+                    let i = y * w + x;
+                    m += luminance(film.means(i).2.as_vec3()) as f64;
+                    v += film.lum_std_error(i).powi(2);
+                }
+            }
+            let n = (b * b) as f64;
+            out.push((m / n, v.sqrt() / n));
+        }
+    }
+    out
+}
+
+/// Block means of a uniform reference render of `scene` at frame `f`.
+fn reference_blocks(scene: &Path, f: i64, spp: u32, b: usize) -> Vec<(f64, f64)> {
+    let scene = Scene::load(scene).unwrap().at_frame(f).unwrap();
+    let film = render(&scene, aleph::integrator::Strategy::Mis, spp);
+    let r = AdaptiveResult {
+        film,
+        ..still_result()
+    };
+    block_stats(&r, b)
+}
+
+/// An empty result to carry a film through [`block_stats`].
+fn still_result() -> AdaptiveResult {
+    AdaptiveResult {
+        film: aleph::film::Film::new(1, 1),
+        stats: Default::default(),
+        guide_stats: None,
+        passes: Vec::new(),
+        stop: aleph::adaptive::StopReason::Budget,
+        converged_fraction: 0.0,
+        threshold: None,
+        error: None,
+        units: "",
+        decision_time: Default::default(),
+        wall: Default::default(),
+        velocity: None,
+        gbuffer: None,
+        reuse: None,
+    }
+}
+
+/// Largest |z| of the blocks' difference from the reference.
+fn worst_z(a: &[(f64, f64)], r: &[(f64, f64)]) -> f64 {
+    a.iter()
+        .zip(r)
+        .map(|((m, s), (rm, rs))| (m - rm).abs() / (s * s + rs * rs).sqrt())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn a_still_camera_reuses_every_earlier_frame_without_bias() {
+    let dir = tempdir();
+    let scene = cornell_sequence(dir.path(), 32, STILL_CAMERA, "");
+    let keep = run(&job(&scene, 7, 16.0, [0, 3]));
+    let (f0, f3) = (keep.frame(0), keep.frame(3));
+    // Frame 3 holds frames 0–2's 48 fresh samples per pixel besides its own 16 (the test
+    // against the fresh samples may drop a few pixels' history by chance).
+    let r = f3.reuse.unwrap();
+    assert_eq!(r.frames, 3);
+    assert!(
+        r.mean_history_spp > 0.95 * 48.0 && r.mean_history_spp <= 48.0 + 1e-9,
+        "{r:?}"
+    );
+    assert!(f0.reuse.unwrap().mean_history_spp == 0.0);
+    // Its mean is the reference's: block means (8×8 pixels, about Gaussian) within the
+    // Šidák-corrected z of 16 tests at 1 %.
+    let b = 8;
+    let reference = reference_blocks(&scene, 3, 1024, b);
+    let z = worst_z(&block_stats(&f3, b), &reference);
+    assert!(z < sidak_z(0.01, 16), "worst block z {z}");
+    // And its error estimate shrank with the samples: the half-buffer error, summed over the
+    // image, falls about as 1/√4 from frame 0 to frame 3 (64 against 16 samples).
+    let err = |r: &AdaptiveResult| -> f64 {
+        (0..r.film.len())
+            .map(|i| {
+                let (a, b, _) = r.film.means(i);
+                0.5 * (luminance(a.as_vec3()) - luminance(b.as_vec3())).abs() as f64
+            })
+            .sum()
+    };
+    let ratio = err(&f3) / err(&f0);
+    assert!((0.35..0.7).contains(&ratio), "error ratio {ratio}");
+}
+
+/// A wall at z = −2 with a smooth texture (period ¼ of the view), lit by an emitter behind
+/// the camera, which pans right at 0.7 pixels per frame (48², 90° field of view).
+fn panned_wall(dir: &Path) -> PathBuf {
+    let tex = image::RgbImage::from_fn(64, 64, |x, y| {
+        let (u, v) = (x as f32 / 64.0, y as f32 / 64.0);
+        let s = 0.5
+            + 0.5
+                * (std::f32::consts::TAU * 2.0 * u).sin()
+                * (std::f32::consts::TAU * 2.0 * v).sin();
+        let c = (255.0 * (0.15 + 0.7 * s)) as u8;
+        image::Rgb([c, c / 2 + 40, 255 - c])
+    });
+    tex.save(dir.join("wall.png")).unwrap();
+    let obj = "mtllib w.mtl\n\
+        v -4 -3 -2\nv 4 -3 -2\nv 4 3 -2\nv -4 3 -2\nvt 0 0\nvt 4 0\nvt 4 3\nvt 0 3\n\
+        usemtl wall\nf 1/1 2/2 3/3 4/4\n\
+        v -2 -2 1\nv -2 2 1\nv 2 2 1\nv 2 -2 1\nusemtl glow\nf 5 6 7 8\n";
+    let mtl = "newmtl wall\nKd 1 1 1\nmap_Kd wall.png\nnewmtl glow\nKd 0 0 0\nKe 2 2 2\n";
+    // 48 px over 4 units at z = −2: 12 px per unit; 0.7 px per frame at 24 fps is 1.4 units/s.
+    let toml = "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nvfov_deg = 90\n\
+        resolution = [48, 48]\n\
+        [[camera.keys]]\ntime = 0.0\n\
+        [[camera.keys]]\ntime = 1.0\nposition = [1.4, 0, 0]\nlook_at = [1.4, 0, -1]\n\
+        [render]\nmax_depth = 2\n[animation]\nfps = 24.0\nframes = [0, 5]\n\
+        [[mesh]]\nfile = \"w.obj\"\n";
+    write_files(dir, &[("w.obj", obj), ("w.mtl", mtl), ("scene.toml", toml)]);
+    dir.join("scene.toml")
+}
+
+/// Block statistics of the reused samples alone (their weighted mean per pixel).
+fn history_blocks(r: &AdaptiveResult, b: usize, skip_right: usize) -> Vec<(f64, f64)> {
+    let film = &r.film;
+    let h = film.history.as_ref().unwrap();
+    let (w, ht) = (film.width as usize, film.height as usize);
+    let mut out = Vec::new();
+    for by in 0..ht / b {
+        for bx in 0..(w - skip_right) / b {
+            let (mut m, mut v) = (0.0, 0.0);
+            for y in by * b..(by + 1) * b {
+                for x in bx * b..(bx + 1) * b {
+                    let p = &h[y * w + x];
+                    let n = p.weight();
+                    assert!(n > 0.0, "pixel ({x}, {y}) reused nothing");
+                    let mean = luminance(((p.sum_even + p.sum_odd) / n).as_vec3()) as f64;
+                    let var = (p.sum_lum2 / n - mean * mean).max(0.0);
+                    m += mean;
+                    v += var / n;
+                }
+            }
+            let n = (b * b) as f64;
+            out.push((m / n, v.sqrt() / n));
+        }
+    }
+    out
+}
+
+#[test]
+fn a_pan_reprojects_the_wall_onto_itself_and_samples_what_comes_into_view() {
+    let dir = tempdir();
+    let scene = panned_wall(dir.path());
+    let keep = run(&job(&scene, 7, 8.0, [0, 3]));
+    let f3 = keep.frame(3);
+    // The reused samples alone (frames 0–2, shifted by 0.7–2.1 pixels and resampled) have the
+    // mean of a fresh render of frame 3, away from the right edge that came into view.
+    let b = 8;
+    let skip = 8;
+    let reference: Vec<(f64, f64)> = {
+        let all = reference_blocks(&scene, 3, 1024, b);
+        let per_row = 48 / b;
+        all.iter()
+            .enumerate()
+            .filter(|(i, _)| i % per_row < (48 - skip) / b)
+            .map(|(_, v)| *v)
+            .collect()
+    };
+    let reused = history_blocks(&f3, b, skip);
+    let z = worst_z(&reused, &reference);
+    assert!(z < sidak_z(0.01, reused.len()), "worst block z {z}");
+    // The rightmost column saw the wall in frame 2 only (its centre lies outside frames 0 and
+    // 1): it reuses less, and the sampler gives it more fresh samples than the rest.
+    let film = &f3.film;
+    let w = 48usize;
+    let col = |x: usize| -> (f64, f64) {
+        let (mut hw, mut fresh) = (0.0, 0.0);
+        for y in 0..48 {
+            let i = y * w + x;
+            hw += film.history_weight(i);
+            fresh += film.pixels[i].count() as f64;
+        }
+        (hw / 48.0, fresh / 48.0)
+    };
+    let (edge_h, edge_f) = col(w - 1);
+    let mid_f = (0..w - 4).map(|x| col(x).1).sum::<f64>() / (w - 4) as f64;
+    // Its one neighbour in frame 2 (bilinear weight 0.3, renormalised) is all it reuses.
+    let f2 = keep.frame(2);
+    let from_2 = (0..48)
+        .map(|y| f2.film.pixels[y * w + w - 1].count() as f64)
+        .sum::<f64>()
+        / 48.0;
+    assert!(
+        (edge_h - from_2).abs() < 1e-9,
+        "edge reuses {edge_h}, frame 2 gave it {from_2}"
+    );
+    assert!(
+        edge_f > 1.5 * mid_f,
+        "edge takes {edge_f} fresh spp, interior {mid_f}"
+    );
+}
+
+/// Renders frames 0–3 of `scene` with reuse (window 7, 16 spp) and checks frame 3 against a
+/// fresh reference of frame 3 in 8×8 blocks: reuse left no visible trace of the past there.
+fn frame_3_matches_its_reference(scene: &Path) -> AdaptiveResult {
+    let keep = run(&job(scene, 7, 16.0, [0, 3]));
+    let f3 = keep.frame(3);
+    let b = 8;
+    let reference = reference_blocks(scene, 3, 1024, b);
+    let blocks = block_stats(&f3, b);
+    let z = worst_z(&blocks, &reference);
+    assert!(z < sidak_z(0.01, blocks.len()), "worst block z {z}");
+    f3
+}
+
+#[test]
+fn a_cut_leaves_no_trace_of_the_shot_before() {
+    let dir = tempdir();
+    // The camera looks at the box from the front until 0.09 s and from the upper left after
+    // 0.12 s: frame 2 (0.083 s) and frame 3 (0.125 s) are two shots.
+    let b = "position = [-0.9, 1.6, 2.2]\nlook_at = [0.2, 0.6, 0.0]";
+    let keys = format!(
+        "[[camera.keys]]\ntime = 0.0\n[[camera.keys]]\ntime = 0.09\n\
+         [[camera.keys]]\ntime = 0.12\n{b}\n[[camera.keys]]\ntime = 1.0\n{b}\n"
+    );
+    let scene = cornell_sequence(dir.path(), 32, STILL_CAMERA, &keys);
+    let f3 = frame_3_matches_its_reference(&scene);
+    // What is still reused lies on diffuse surfaces seen in both shots.
+    let r = f3.reuse.unwrap();
+    assert!(r.reused_fraction < 0.9, "{r:?}");
+}
+
+#[test]
+fn a_moving_block_leaves_no_ghost_and_no_stale_shadow() {
+    let dir = tempdir();
+    // A block flies across the box at 4.8 m/s (0.2 m, about 2 pixels, per frame).
+    let obj = format!("mtllib b.mtl\n{}", cube_obj(0.15, false, "block", 0));
+    write_files(
+        dir.path(),
+        &[("b.obj", &obj), ("b.mtl", "newmtl block\nKd 0.8 0.8 0.2\n")],
+    );
+    let mesh = "[[mesh]]\nfile = \"b.obj\"\n\
+        [[mesh.keys]]\ntime = 0.0\ntranslate = [-0.5, 1.0, 0.3]\n\
+        [[mesh.keys]]\ntime = 1.0\ntranslate = [4.3, 1.0, 0.3]\n";
+    let scene = cornell_sequence(dir.path(), 32, STILL_CAMERA, mesh);
+    frame_3_matches_its_reference(&scene);
+}
+
+#[test]
+fn a_light_switched_on_shows_in_the_same_frame() {
+    let dir = tempdir();
+    // A lid under the ceiling light blocks it until 0.1 s, then leaves the box at once:
+    // frames 0–2 are lit only by what leaks past the lid, frame 3 by the light.
+    let obj = format!("mtllib l.mtl\n{}", cube_obj(0.5, false, "lid", 0));
+    write_files(
+        dir.path(),
+        &[("l.obj", &obj), ("l.mtl", "newmtl lid\nKd 0 0 0\n")],
+    );
+    let key = |t: f64, y: f64| {
+        format!("[[mesh.keys]]\ntime = {t}\ntranslate = [0.0, {y}, 0.0]\nscale = [0.6, 0.1, 0.6]\n")
+    };
+    let mesh = format!(
+        "[[mesh]]\nfile = \"l.obj\"\n{}{}{}{}",
+        key(0.0, 1.45),
+        key(0.1, 1.45),
+        key(0.11, 30.0),
+        key(1.0, 30.0)
+    );
+    let scene = cornell_sequence(dir.path(), 32, STILL_CAMERA, &mesh);
+    let f3 = frame_3_matches_its_reference(&scene);
+    // Wherever the direct light reaching a surface changed by a tenth or more, the dark frames'
+    // samples were dropped (the camera is still: pixel i sees the same point in every frame).
+    let keep = run(&job(&scene, 7, 16.0, [2, 2]));
+    let g2 = keep.frame(2).gbuffer.unwrap();
+    let g3 = f3.gbuffer.as_ref().unwrap();
+    let mut changed = 0;
+    for i in 0..g3.width * g3.height {
+        let (a, b) = (g2.direct[i], g3.direct[i]);
+        // NaN: lit by the static scene alone (no moving object near the way to the light).
+        let moved = a.is_nan() != b.is_nan();
+        if moved || ((a - b).abs() >= 0.1 * a.max(b) && a.max(b) > 0.0) {
+            changed += 1;
+            assert_eq!(
+                f3.film.history_weight(i),
+                0.0,
+                "pixel {i}: direct {a} -> {b}"
+            );
+        }
+    }
+    assert!(changed > 200, "{changed} pixels whose light changed");
+}
+
+#[test]
+fn view_dependent_surfaces_reuse_nothing_under_a_moving_camera() {
+    let dir = tempdir();
+    let obj = repo("scenes/cornell-variants/CornellBox-Glossy.obj");
+    let toml = format!(
+        "[camera]\nposition = [0.0, 0.8, 3.3]\nlook_at = [0.0, 0.78, 0.0]\nvfov_deg = 39.3\n\
+         resolution = [32, 32]\n[[camera.keys]]\ntime = 0.0\n\
+         [[camera.keys]]\ntime = 1.0\nposition = [7.2, 0.9, 3.0]\nlook_at = [0.0, 0.78, 0.0]\n\
+         [render]\nmax_depth = 4\n[animation]\nfps = 24.0\nframes = [0, 5]\n\
+         [[mesh]]\nfile = {obj:?}\n[materials.light]\ntype = \"diffuse\"\n\
+         reflectance = [0.78, 0.78, 0.78]\nemission = [17.0, 12.0, 4.0]\n"
+    );
+    write_files(dir.path(), &[("scene.toml", &toml)]);
+    let scene_path = dir.path().join("scene.toml");
+    let keep = run(&job(&scene_path, 1, 8.0, [0, 1]));
+    let f1 = keep.frame(1);
+    let g = f1.gbuffer.as_ref().unwrap();
+    let scene = Scene::load(&scene_path).unwrap().at_frame(1).unwrap();
+    let t0 = scene.animation.unwrap().frame(0).time_s as f32;
+    let (mut glossy, mut diffuse_reused) = (0, 0);
+    for i in 0..g.width * g.height {
+        let turn = g.sight(&scene, i, t0).map_or(0.0, |s| s.turn);
+        if turn > g.reuse_angle[i] {
+            glossy += 1;
+            assert_eq!(f1.film.history_weight(i), 0.0, "pixel {i} turned {turn}");
+        } else if f1.film.history_weight(i) > 0.0 {
+            diffuse_reused += 1;
+        }
+    }
+    // The glossy spheres and boxes are a good part of the image; the walls are reused.
+    assert!(glossy > 100, "{glossy} view-dependent pixels");
+    assert!(diffuse_reused > 400, "{diffuse_reused} reused pixels");
+}
+
+/// Runs the CLI in `dir`.
+fn aleph(dir: &Path, args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn a_frame_rendered_alone_equals_the_same_frame_in_its_sequence() {
+    let dir = tempdir();
+    let scene = repo("scenes/cornell-motion/scene.toml");
+    let s = scene.to_str().unwrap();
+    let common = ["--resolution", "24x24", "--spp", "4"];
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", s];
+        args.extend(common);
+        args.extend(extra);
+        let o = aleph(dir.path(), &args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&["--frames", "0-5", "--reuse-window", "2", "-o", "seq"]);
+    // Frame 4 is the second of the run 3–5: alone it renders frame 3 first.
+    run(&["--frame", "4", "--reuse-window", "2", "-o", "alone"]);
+    let read = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
+    let (a, b) = (read("seq.0004.exr"), read("alone.0004.exr"));
+    let channels = |p: &str| aleph::imageio::read_exr_raw(&dir.path().join(p)).unwrap();
+    let (ca, cb) = (channels("seq.0004.exr"), channels("alone.0004.exr"));
+    assert_eq!(ca.f32s, cb.f32s);
+    assert_eq!(ca.u32s, cb.u32s);
+    assert_eq!(a.len(), b.len());
+    assert!(!dir.path().join("alone.0003.exr").exists());
+    // Window 0 gives the independent frames.
+    run(&["--frame", "4", "--reuse-window", "0", "-o", "ind"]);
+    assert!(!channels("ind.0004.exr").f32s.contains_key("History.spp"));
+    assert!(ca.f32s.contains_key("History.spp"));
+}
+
+#[test]
+fn bad_reuse_windows_are_refused_before_any_work() {
+    let dir = tempdir();
+    let motion = repo("scenes/cornell-motion/scene.toml");
+    let still = repo("scenes/cornell-box/scene.toml");
+    let (m, st) = (motion.to_str().unwrap(), still.to_str().unwrap());
+    let cases: [(&[&str], &str); 6] = [
+        (&["render", m, "--reuse-window=-1"], "--reuse-window"),
+        (&["render", m, "--reuse-window", "65"], "at most 64 frames"),
+        (
+            &["render", m, "--reuse-window", "3", "--sampler", "uniform"],
+            "perceptual sampler",
+        ),
+        (
+            &["render", m, "--reuse-window", "3", "--time", "2"],
+            "--time",
+        ),
+        (
+            &[
+                "render",
+                m,
+                "--reuse-window",
+                "3",
+                "--frame",
+                "2",
+                "--tile",
+                "1/2",
+            ],
+            "--tile",
+        ),
+        (&["render", st, "--reuse-window", "3"], "needs a sequence"),
+    ];
+    for (args, want) in cases {
+        let mut args = args.to_vec();
+        args.extend(["--resolution", "16x16", "-o", "x"]);
+        let o = aleph(dir.path(), &args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "{args:?} wrote files"
+        );
+    }
+}
