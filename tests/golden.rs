@@ -9,6 +9,10 @@
 //! plotting library). Every frame's EXR and PNG and the animated preview of both sequences
 //! were checked byte-identical (`cmp`) to 32c614b's; only `seq.filmstrip.png` changed.
 //!
+//! Two cases were added with reuse across frames (issue 33) and recorded when it landed: the
+//! same two sequences with `--reuse-window 2` (frames 2-4 of the moving-sphere box: run 0-2
+//! and the keyframe 3 with frame 4; the holodeck's frames 0-2: one run).
+//!
 //! Layers added since are not hashed, so that the table keeps guarding the pixels it guarded:
 //! the G-buffer (`Depth.Z`, `Normal.X/Y/Z`, `IndexOB`) and `History.spp` of reuse across
 //! frames; the sequence cases render independent frames (`--reuse-window 0`), as every
@@ -172,6 +176,20 @@ fn sequence_cases() -> Vec<Case> {
         );
         (format!("{name} sequence"), vec![c])
     })
+    .chain(
+        [
+            ("cornell-motion", "scenes/cornell-motion/scene.toml", "2-4"),
+            ("holodeck pan", "scenes/holodeck/pan.toml", "0-2"),
+        ]
+        .into_iter()
+        .map(|(name, scene, frames)| {
+            let c = cmd(
+                scene,
+                &format!("render -o seq --frames {frames} --reuse-window 2 {opts}"),
+            );
+            (format!("{name} sequence reusing frames"), vec![c])
+        }),
+    )
     .collect()
 }
 
@@ -311,6 +329,8 @@ pub const GOLDEN: &[(&str, u64)] = &[
     ("scenes/mori-knob/scene.toml converged", 0x496c7eca2870a4d4),
     ("cornell-motion sequence", 0xf07818200deac679),
     ("holodeck pan sequence", 0xef49692498148d6e),
+    ("cornell-motion sequence reusing frames", 0xdeb9570917228f19),
+    ("holodeck pan sequence reusing frames", 0xd583838d36bfa4ca),
     ("cornell-box parts merged", 0x54766d1821b4d5bd),
     ("cornell-motion frame parts merged", 0xb88041f1dce5d457),
     ("cornell-box tiles merged", 0xf56a5d95be5af0d5),
