@@ -599,20 +599,31 @@ pub fn render_adaptive(
     sample_progress: &(dyn Fn(u64) + Sync),
 ) -> Result<AdaptiveResult, AdaptiveError> {
     s.validate()?;
+    let gbuffer = GBuffer::render(scene);
+    let mut r = adaptive_loop(scene, s, progress, sample_progress)?;
+    r.gbuffer = Some(gbuffer);
+    Ok(r)
+}
+
+/// [`render_adaptive`] without the G-buffer.
+fn adaptive_loop(
+    scene: &Scene,
+    s: &AdaptiveSettings,
+    progress: &(dyn Fn(&PassReport) + Sync),
+    sample_progress: &(dyn Fn(u64) + Sync),
+) -> Result<AdaptiveResult, AdaptiveError> {
     let start = Instant::now();
     let integrator = Integrator {
         max_depth: scene.settings.max_depth,
         strategy: Strategy::Mis,
     };
     let velocity = render_velocity(scene);
-    let gbuffer = GBuffer::render(scene);
     let mut st = LoopState::new(scene, s)?;
     if !s.steers() {
         // The uniform sampler, or a budget too small to steer: one uniform pass of the whole
         // budget over the rows this render owns.
         let mut r = render_uniform_budget(scene, s, st, progress, sample_progress, start);
         r.velocity = velocity;
-        r.gbuffer = Some(gbuffer);
         return Ok(r);
     }
     let n_px = st.region.len();
@@ -627,9 +638,7 @@ pub fn render_adaptive(
     st.unreported_render = pass.wall;
     st.stats += pass;
     if budget_total.is_some_and(|b| st.region_samples() as f64 >= b as f64 - 0.002 * n_px as f64) {
-        let mut r = unjudged(st, s, progress, velocity, start);
-        r.gbuffer = Some(gbuffer);
-        return Ok(r);
+        return Ok(unjudged(st, s, progress, velocity, start));
     }
     // The threshold mapper's setup (filters, FFT plans) is a decision cost too.
     let t_setup = Instant::now();
@@ -713,7 +722,7 @@ pub fn render_adaptive(
         decision_time: st.decision_time,
         wall: start.elapsed(),
         velocity,
-        gbuffer: Some(gbuffer),
+        gbuffer: None,
         reuse: None,
     })
 }

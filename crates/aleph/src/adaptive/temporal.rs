@@ -26,7 +26,7 @@ use crate::film::Film;
 use crate::gbuffer::GBuffer;
 use crate::integrator::{Integrator, Strategy};
 use crate::render::render_counts;
-use crate::reuse::ReuseWindow;
+use crate::reuse::{Reprojected, ReuseWindow, Tested};
 use crate::scene::Scene;
 use crate::velocity::render_velocity;
 use rayon::prelude::*;
@@ -86,8 +86,7 @@ pub fn render_reusing(
     st.unreported_render = pass.wall;
     st.stats += pass;
     let t_test = Instant::now();
-    let mut tested = reprojected.test(&st.film);
-    st.film.history = Some(std::mem::take(&mut tested.history));
+    let mut tested = retest(&reprojected, &mut st.film);
     reuse_time += t_test.elapsed();
     let t_setup = Instant::now();
     let mut judge = judge_for(scene, s, velocity.as_ref(), &st.film)?;
@@ -123,24 +122,13 @@ pub fn render_reusing(
             };
             break (judgement, reason);
         }
-        let mut alloc = match (remaining, st.passes.len()) {
-            // The first judged pass under a budget levels the effective counts with
-            // FLOOR_SHARE of what is left: disoccluded pixels come up to their reused
-            // neighbours before the model ranks anything.
-            (Some(rem), 1) => {
-                let mut a = Allocation::empty(n_px);
-                let floor = (FLOOR_SHARE * rem as f64) as u64;
-                water_fill(&mut a, &st.film, &ratio, floor, cap);
-                a
-            }
-            _ => plan(&st.film, &ratio, cap),
-        };
-        if let Some(rem) = remaining {
-            if alloc.total() == 0 || converged >= s.converged_fraction {
-                water_fill(&mut alloc, &st.film, &ratio, rem, cap);
-            }
-            fit_to_budget(&mut alloc, &st.film, &ratio, rem, cap);
-        }
+        let alloc = next_pass(
+            &st,
+            &ratio,
+            remaining,
+            converged >= s.converged_fraction,
+            cap,
+        );
         if alloc.total() == 0 {
             let reason = if converged >= s.converged_fraction {
                 StopReason::Converged
@@ -160,9 +148,7 @@ pub fn render_reusing(
         st.stats += pass;
         // The test again, with every fresh sample so far: more of them resolve smaller changes.
         let t_test = Instant::now();
-        st.film.history = None;
-        tested = reprojected.test(&st.film);
-        st.film.history = Some(std::mem::take(&mut tested.history));
+        tested = retest(&reprojected, &mut st.film);
         reuse_time += t_test.elapsed();
     };
     let reuse = reuse_report(&st.film, window.len(), reuse_time);
@@ -183,6 +169,45 @@ pub fn render_reusing(
         gbuffer: Some(gbuffer),
         reuse: Some(reuse),
     })
+}
+
+/// Tests the reprojected frames against `film`'s fresh samples and makes what is kept the
+/// film's history; returns the bias bounds (the history is moved into the film).
+fn retest(reprojected: &Reprojected, film: &mut Film) -> Tested {
+    film.history = None;
+    let mut tested = reprojected.test(film);
+    film.history = Some(std::mem::take(&mut tested.history));
+    tested
+}
+
+/// The next pass: under a budget (`remaining` samples left) the first judged pass levels the
+/// effective counts with [`FLOOR_SHARE`] of it (disoccluded pixels come up to their reused
+/// neighbours before the model ranks anything); later ones follow the model ([`plan`]), and
+/// once everything is invisible (`converged`) or nothing is wanted the rest levels the counts
+/// again; all fitted to the budget.
+fn next_pass(
+    st: &LoopState,
+    ratio: &[f32],
+    remaining: Option<u64>,
+    converged: bool,
+    cap: u32,
+) -> Allocation {
+    let mut alloc = match (remaining, st.passes.len()) {
+        (Some(rem), 1) => {
+            let mut a = Allocation::empty(st.film.len());
+            let floor = (FLOOR_SHARE * rem as f64) as u64;
+            water_fill(&mut a, &st.film, ratio, floor, cap);
+            a
+        }
+        _ => plan(&st.film, ratio, cap),
+    };
+    if let Some(rem) = remaining {
+        if alloc.total() == 0 || converged {
+            water_fill(&mut alloc, &st.film, ratio, rem, cap);
+        }
+        fit_to_budget(&mut alloc, &st.film, ratio, rem, cap);
+    }
+    alloc
 }
 
 /// Fresh samples per pixel of the first pass: 2 from a budget of 4 spp (both half-buffers
