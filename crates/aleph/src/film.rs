@@ -321,12 +321,7 @@ impl Film {
     #[inline]
     pub fn means(&self, i: usize) -> (DVec3, DVec3, DVec3) {
         let p = &self.pixels[i];
-        let Some(h) = self
-            .history
-            .as_ref()
-            .map(|h| h[i])
-            .filter(|h| h.weight() > 0.0)
-        else {
+        let Some(h) = self.reused(i) else {
             return (p.mean_even(), p.mean_odd(), p.mean());
         };
         let mean = |s: DVec3, n: f64| if n > 0.0 { s / n } else { DVec3::ZERO };
@@ -337,6 +332,15 @@ impl Film {
             mean(so + h.sum_odd, no + h.n_odd),
             mean(se + so + h.sum_even + h.sum_odd, ne + no + h.weight()),
         )
+    }
+
+    /// Pixel `i`'s reused samples, if it has any.
+    #[inline]
+    fn reused(&self, i: usize) -> Option<HistoryPixel> {
+        self.history
+            .as_ref()
+            .map(|h| h[i])
+            .filter(|h| h.weight() > 0.0)
     }
 
     /// Samples behind pixel `i`'s estimate: its fresh count plus the reused weight.
@@ -355,12 +359,7 @@ impl Film {
     /// sqrt(var / n_eff) (infinite under 2 samples).
     pub fn lum_std_error(&self, i: usize) -> f64 {
         let p = &self.pixels[i];
-        let Some(h) = self
-            .history
-            .as_ref()
-            .map(|h| h[i])
-            .filter(|h| h.weight() > 0.0)
-        else {
+        let Some(h) = self.reused(i) else {
             return p.lum_std_error();
         };
         let n = self.effective_count(i);

@@ -187,7 +187,7 @@ fn render_frame(
     stem: Option<&Path>,
     observer: &dyn Observer,
 ) -> Result<(AdaptiveResult, Vec<u8>), JobError> {
-    let result = adaptive(scene, settings, observer)?;
+    let result = adaptive(scene, settings, None, observer)?;
     let display = deliver_frame(job, scene, settings, look, stem, observer, &result)?;
     Ok((result, display))
 }
@@ -220,36 +220,21 @@ fn deliver_frame(
     Ok(display)
 }
 
-/// The adaptive loop with the observer's progress.
+/// The adaptive loop with the observer's progress: independent of other frames, or reusing
+/// the samples of the frames in `window` ([`crate::adaptive::render_reusing`]).
 fn adaptive(
     scene: &Scene,
     settings: &AdaptiveSettings,
+    window: Option<&crate::reuse::ReuseWindow>,
     observer: &dyn Observer,
 ) -> Result<AdaptiveResult, JobError> {
     let frame = scene.animation.map(|_| scene.frame.index);
-    Ok(render_adaptive(
-        scene,
-        settings,
-        &|p| observer.pass(frame, p),
-        &|n| observer.samples(n),
-    )?)
-}
-
-/// The reusing loop with the observer's progress.
-fn reusing(
-    scene: &Scene,
-    settings: &AdaptiveSettings,
-    window: &crate::reuse::ReuseWindow,
-    observer: &dyn Observer,
-) -> Result<AdaptiveResult, JobError> {
-    let frame = Some(scene.frame.index);
-    Ok(crate::adaptive::render_reusing(
-        scene,
-        settings,
-        window,
-        &|p| observer.pass(frame, p),
-        &|n| observer.samples(n),
-    )?)
+    let pass = |p: &PassReport| observer.pass(frame, p);
+    let samples = |n| observer.samples(n);
+    Ok(match window {
+        Some(w) => crate::adaptive::render_reusing(scene, settings, w, &pass, &samples)?,
+        None => render_adaptive(scene, settings, &pass, &samples)?,
+    })
 }
 
 /// Frames `first..=last`: the viewer's adaptation carried across them, numbered outputs, and
@@ -280,13 +265,13 @@ fn render_sequence(
             .filter(|_| frame.index >= first)
             .map(|s| numbered(s, frame.index));
         let result = if k == 0 {
-            adaptive(&frame.scene, &settings, observer)?
+            adaptive(&frame.scene, &settings, None, observer)?
         } else {
             settings.budget_spp = job
                 .budget
                 .spp
                 .map(|b| crate::reuse::frame_budget(b, frame.index - run, k));
-            reusing(&frame.scene, &settings, &window, observer)?
+            adaptive(&frame.scene, &settings, Some(&window), observer)?
         };
         if k > 0 && frame.index < last {
             let g = result
@@ -440,7 +425,7 @@ fn render_tile(
     let record = part_record(job)?;
     let path = part_path(&stem, i, k, true);
     crate::output::check_output_location(&path)?;
-    let r = adaptive(&scene, &settings, observer)?;
+    let r = adaptive(&scene, &settings, None, observer)?;
     let te = r.threshold.as_deref().zip(r.error.as_deref());
     let part = tile_of(&r.film, (y0, y1), te, i, k, record);
     write_partial(&path, &part)?;
