@@ -113,10 +113,16 @@ pub struct Written {
 }
 
 /// Extra EXR channels (name, samples) and header attributes (name, text).
-type ExrLayers = (Vec<(String, ChannelData)>, Vec<(String, String)>);
+pub type ExrLayers = (Vec<(String, ChannelData)>, Vec<(String, String)>);
 
-/// EXR attributes and extra channels of a render.
-fn exr_layers(scene: &Scene, settings: &AdaptiveSettings, result: &AdaptiveResult) -> ExrLayers {
+/// The extra channels (beyond R, G, B) and header attributes of a render's EXR, as
+/// [`write_render`] writes them (see the module docs for the names): each channel a row-major
+/// `width × height` plane. The Python bindings return the same planes as arrays.
+pub fn exr_layers(
+    scene: &Scene,
+    settings: &AdaptiveSettings,
+    result: &AdaptiveResult,
+) -> ExrLayers {
     let mut attributes = vec![
         (
             "radianceUnits".to_string(),
@@ -184,6 +190,29 @@ fn gbuffer_layers(
     ));
 }
 
+/// The display image of linear radiance `rgb` (interleaved, `width × height`) through `look`:
+/// 8-bit sRGB, interleaved RGB, as the PNG holds it; and words for the summary.
+///
+/// # Errors
+/// [`DeliverError`] if the tone operator rejects the image.
+pub fn display_image(
+    rgb: &[f32],
+    width: usize,
+    height: usize,
+    look: Look,
+) -> Result<(Vec<u8>, String), DeliverError> {
+    Ok(match look {
+        Look::Tone(tone) => (
+            encode_srgb8(&tone_map(rgb, width, height, &tone)?),
+            format!("tone operator {}", tone.operator.name()),
+        ),
+        Look::Exposure(ev) => {
+            let ev = ev.unwrap_or_else(|| auto_exposure_ev(rgb));
+            (encode_srgb8(&expose(rgb, ev)), format!("{ev:+.2} EV"))
+        }
+    })
+}
+
 /// Writes the outputs of `result` (a render of `scene`'s current frame with `settings`) to
 /// `stem` + extensions (see the module docs); `aov` adds the false-colour PNGs.
 ///
@@ -207,16 +236,7 @@ pub fn write_render(
     out.stage(&exr_path, |wr| {
         write_exr(wr, &exr_path, w, h, &rgb, &extra, &attributes)
     })?;
-    let (display, look) = match look {
-        Look::Tone(tone) => (
-            encode_srgb8(&tone_map(&rgb, w as usize, h as usize, &tone)?),
-            format!("tone operator {}", tone.operator.name()),
-        ),
-        Look::Exposure(ev) => {
-            let ev = ev.unwrap_or_else(|| auto_exposure_ev(&rgb));
-            (encode_srgb8(&expose(&rgb, ev)), format!("{ev:+.2} EV"))
-        }
-    };
+    let (display, look) = display_image(&rgb, w as usize, h as usize, look)?;
     out.stage(&png_path, |wr| write_png(wr, &png_path, w, h, &display))?;
     if aov {
         let spp: Vec<f32> = film.spp().iter().map(|&n| n as f32).collect();

@@ -89,8 +89,10 @@ fn trace(
 }
 
 /// Adds `counts[i]` samples to pixel i of `film` (row-major), in parallel over rows. The result
-/// is bit-identical for any thread count. `progress` is called with the number of samples each
-/// finished row took (from worker threads).
+/// is bit-identical for any thread count. `progress` is called (from worker threads) with 0
+/// when a row starts and with the number of samples the row took when it ends; a caller that
+/// must stop the render may unwind from it (`std::panic::resume_unwind`, as the Python
+/// bindings do on Ctrl-C): rows not yet started then start no work.
 ///
 /// # Panics
 /// If `counts.len()` differs from the film's pixel count or the film's size differs from the
@@ -136,6 +138,7 @@ pub fn render_counts_seeded(
         .zip(counts.par_chunks(w))
         .enumerate()
         .for_each(|(y, (row, row_counts))| {
+            progress(0);
             let (mut r, mut nf, mut s) = (0u64, 0u64, 0u64);
             for (x, (px, &c)) in row.iter_mut().zip(row_counts).enumerate() {
                 sample_pixel(

@@ -25,7 +25,9 @@ pub trait Observer: Sync {
     fn sequence_started(&self, _first: i64, _last: i64) {}
     /// A pass of the adaptive loop ended (`frame`: the frame number in a sequence).
     fn pass(&self, _frame: Option<i64>, _report: &PassReport) {}
-    /// Samples were taken (called from worker threads, often).
+    /// Samples were taken (called from worker threads, often: with 0 when a row of pixels
+    /// starts, with its samples when it ends; see [`crate::render::render_counts`] for
+    /// stopping a render from here).
     fn samples(&self, _n: u64) {}
     /// A frame (or the still) was rendered and, with an output stem, written.
     fn frame_done(&self, _done: &FrameDone<'_>) {}
@@ -45,6 +47,9 @@ pub struct FrameDone<'a> {
     pub stem: Option<&'a Path>,
     /// Words for the summary: the operator or exposure of the PNG.
     pub look: &'a str,
+    /// How the display image (the PNG) is made from the radiance
+    /// ([`crate::deliver::display_image`]).
+    pub display: Look,
 }
 
 /// What a job did, beyond its frames.
@@ -203,7 +208,7 @@ fn deliver_frame(
     observer: &dyn Observer,
     result: &AdaptiveResult,
 ) -> Result<Vec<u8>, JobError> {
-    let (display, look) = match stem {
+    let (display, words) = match stem {
         Some(stem) => {
             let w = write_render(scene, stem, settings, result, look, job.output.aov)?;
             (w.display, w.look)
@@ -215,7 +220,8 @@ fn deliver_frame(
         settings,
         result,
         stem,
-        look: &look,
+        look: &words,
+        display: look,
     });
     Ok(display)
 }

@@ -480,7 +480,12 @@ impl RenderJob {
     /// # Errors
     /// As [`SceneDescription::read`].
     pub fn scene_description(&self) -> Result<SceneDescription, SceneError> {
-        let mut desc = SceneDescription::read(&self.scene.path)?;
+        Ok(self.with_overrides(SceneDescription::read(&self.scene.path)?))
+    }
+
+    /// `desc` with the job's overrides of resolution, seed and path depth (for a scene
+    /// described in memory, as the Python bindings' dictionaries).
+    pub fn with_overrides(&self, mut desc: SceneDescription) -> SceneDescription {
         if let Some([w, h]) = self.scene.resolution {
             desc.camera.resolution = [w, h];
         }
@@ -490,7 +495,7 @@ impl RenderJob {
         if let Some(d) = self.scene.max_depth {
             desc.render.max_depth = Some(d);
         }
-        Ok(desc)
+        desc
     }
 
     /// Loads the scene with the job's overrides.

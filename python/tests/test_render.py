@@ -1,0 +1,156 @@
+"""Rendering from Python: the arrays equal the CLI's EXR bit for bit, for stills and
+sequences, with every sampler; scene dictionaries; threads; progress; errors."""
+
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import OpenEXR
+import pytest
+
+import aleph
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+
+def exr_channels(path: pathlib.Path) -> dict:
+    """Every channel of a single-part EXR, read by the OpenEXR library (not aleph's)."""
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        return {name: np.array(c.pixels) for name, c in f.channels().items()}
+
+
+def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def assert_matches_exr(rgb, aovs, exr):
+    assert set(exr) == {"R", "G", "B"} | set(aovs)
+    for c, name in enumerate("RGB"):
+        assert same_bits(rgb[..., c], exr[name]), name
+    for name, plane in aovs.items():
+        assert same_bits(plane, exr[name]), name
+
+
+@pytest.mark.parametrize(
+    "sampler,spp",
+    # The adaptive samplers steer from 128 spp (below, they sample uniformly).
+    [("perceptual", 160), ("uniform", 6), ("variance", 160)],
+)
+def test_still_equals_cli_exr(tmp_path, cli, cornell, sampler, spp):
+    args = ["--spp", str(spp), "--resolution", "48x40", "--sampler", sampler]
+    subprocess.run(
+        [cli, "render", cornell, *args, "-o", tmp_path / "cli"], check=True, capture_output=True
+    )
+    r = aleph.render(cornell, spp=spp, resolution=(48, 40), sampler=sampler)
+    assert r.rgb.shape == (40, 48, 3) and r.rgb.dtype == np.float32
+    assert r.spp.dtype == np.uint32 and r.spp.shape == (40, 48)
+    assert_matches_exr(r.rgb, r.aovs, exr_channels(tmp_path / "cli.exr"))
+    if sampler != "uniform":
+        assert {"Threshold.Y", "Error.Y"} <= set(r.aovs)
+        assert r.spp.min() < r.spp.max()  # it steered
+    # Mean spp is the budget: spp × pixels in all.
+    assert int(r.spp.sum()) == spp * 48 * 40 == r.stats[0]["samples"]
+
+
+def test_written_files_equal_cli_files(tmp_path, cli, cornell):
+    """output= writes the same EXR and PNG bytes as `aleph render -o`."""
+    subprocess.run(
+        [cli, "render", cornell, "--spp", "4", "--resolution", "40x32", "-o", tmp_path / "cli"],
+        check=True,
+        capture_output=True,
+    )
+    r = aleph.render(cornell, spp=4, resolution=(40, 32), output=tmp_path / "py")
+    for ext in ("exr", "png"):
+        assert (tmp_path / f"py.{ext}").read_bytes() == (tmp_path / f"cli.{ext}").read_bytes()
+    assert r.display.dtype == np.uint8 and r.display.shape == (32, 40, 3)
+
+
+def test_sequence_equals_cli_frames(tmp_path, cli, cornell_motion):
+    """Frames 2–3 of the moving sphere (reusing frame 0–1's samples: a group of the default
+    window starts at frame 0) against the CLI's numbered EXRs."""
+    subprocess.run(
+        [cli, "render", cornell_motion, "--frames", "2..3", "--spp", "4",
+         "--resolution", "32x32", "-o", tmp_path / "seq"],
+        check=True,
+        capture_output=True,
+    )
+    r = aleph.render(cornell_motion, frames=(2, 3), spp=4, resolution=(32, 32))
+    assert r.frames == [2, 3]
+    assert r.rgb.shape == (2, 32, 32, 3)
+    assert {"Vector.X", "History.spp"} <= set(r.aovs)
+    for i, f in enumerate(r.frames):
+        exr = exr_channels(tmp_path / f"seq.{f:04d}.exr")
+        assert_matches_exr(r.rgb[i], {k: v[i] for k, v in r.aovs.items()}, exr)
+    assert r.report["kind"] == "sequence"
+
+
+def test_dict_scene_equals_file(cornell):
+    desc = tomllib.loads(cornell.read_text())
+    a = aleph.render(cornell, spp=2, resolution=(24, 24), sampler="uniform")
+    b = aleph.render(
+        desc, spp=2, resolution=(24, 24), sampler="uniform", base_dir=cornell.parent
+    )
+    assert same_bits(a.rgb, b.rgb)
+
+
+def test_threads_do_not_change_pixels(cornell):
+    a = aleph.render(cornell, spp=16, resolution=(32, 32), threads=1)
+    b = aleph.render(cornell, spp=16, resolution=(32, 32), threads=2)
+    assert same_bits(a.rgb, b.rgb) and same_bits(a.spp, b.spp)
+
+
+def test_progress_counts_every_sample(cornell):
+    seen = []
+    r = aleph.render(cornell, spp=24, resolution=(32, 32), progress=seen.append)
+    assert all(isinstance(p, aleph.Progress) for p in seen)
+    assert sum(p.samples for p in seen) == int(r.spp.sum())
+    assert seen[-1].kind == "frame" and seen[-1].total_samples == 24 * 32 * 32
+    assert all(p.expected_samples == 24 * 32 * 32 for p in seen)
+    passes = [p for p in seen if p.kind == "pass"]
+    assert [p.pass_index for p in passes] == list(range(len(passes))) and passes
+
+
+def test_job_record_round_trips(cornell):
+    job = aleph.RenderJob(cornell, spp=8, sampler="variance", resolution=(16, 16))
+    again = aleph.RenderJob.from_toml(job.to_toml())
+    assert again.to_toml() == job.to_toml()
+    assert same_bits(aleph.render_job(job).rgb, aleph.render_job(again).rgb)
+
+
+def test_missing_scene_names_the_file(tmp_path):
+    missing = tmp_path / "nope.toml"
+    with pytest.raises(aleph.SceneError, match="nope.toml"):
+        aleph.render(missing)
+
+
+def test_unknown_scene_key_names_the_key(cornell):
+    desc = tomllib.loads(cornell.read_text())
+    desc["camera"]["lens_flare"] = True
+    with pytest.raises(aleph.SceneError, match="lens_flare"):
+        aleph.render(desc, spp=1, base_dir=cornell.parent)
+
+
+@pytest.mark.parametrize(
+    "kw,words",
+    [
+        ({"sampler": "magic"}, "sampler"),
+        ({"spp": 0.5}, "spp"),
+        ({"reuse_window": 3}, "sequence"),
+        ({"operator": "nope"}, "operator"),
+        ({"threads": 0}, "threads"),
+    ],
+)
+def test_bad_options_raise_job_error(cornell, kw, words):
+    with pytest.raises(aleph.JobError, match=words):
+        aleph.render(cornell, resolution=(8, 8), **kw)
+    assert issubclass(aleph.JobError, aleph.AlephError)
+
+
+def test_bad_scene_type_is_type_error():
+    with pytest.raises(TypeError, match="scene"):
+        aleph.render(42)
