@@ -154,3 +154,30 @@ def test_bad_options_raise_job_error(cornell, kw, words):
 def test_bad_scene_type_is_type_error():
     with pytest.raises(TypeError, match="scene"):
         aleph.render(42)
+
+
+@pytest.mark.parametrize(
+    "edit,kind",
+    [
+        (lambda t: t.replace("[camera]", "[camera]\nlens_flare = true"), aleph.SceneError),
+        (lambda t: t.replace('file = "CornellBox-Original.obj"', 'file = "missing.obj"'),
+         aleph.SceneError),
+        (lambda t: t.replace("resolution = [512, 512]", "resolution = [0, 512]"),
+         aleph.SceneError),
+    ],
+)
+def test_exception_carries_the_cli_message(tmp_path, cli, cornell, edit, kind):
+    """A broken scene file: the exception's message is the one `aleph render` prints (after
+    its "aleph: error: " prefix), naming the file."""
+    for f in cornell.parent.iterdir():
+        (tmp_path / f.name).write_bytes(f.read_bytes())
+    scene = tmp_path / "scene.toml"
+    scene.write_text(edit(scene.read_text()))
+    out = subprocess.run(
+        [cli, "render", scene, "-o", tmp_path / "out"], capture_output=True, text=True
+    )
+    assert out.returncode != 0
+    with pytest.raises(kind) as e:
+        aleph.render(scene)
+    assert str(scene) in str(e.value)
+    assert f"aleph: error: {e.value}" in out.stderr
