@@ -29,7 +29,8 @@ RESOLUTION = (192, 192)
 BUDGETS = (128, 512)  # average spp; the perceptual sampler steers from 128
 REFERENCE_SPP = 2048  # uniform, 4× the larger budget, a different seed
 PPD = 67.0  # pixels per degree of the viewer (FLIP's default monitor)
-LUMINANCE_SCALE = 100.0  # the scene's render.luminance_scale: cd/m² per unit of radiance
+# cd/m² per unit of radiance (the scene's render.luminance_scale).
+LUMINANCE_SCALE = aleph.load_scene(SCENE)["luminance_scale"]
 
 
 def render(**kw):

@@ -49,6 +49,7 @@ __all__ = [
     "RenderResult",
     "SceneError",
     "diff",
+    "load_scene",
     "luminance",
     "operators",
     "read_image",
@@ -109,6 +110,29 @@ class RenderResult:
         """Luminance Y of ``rgb`` in radiance units (Rec. 709 weights); multiply by the
         scene's ``render.luminance_scale`` for cd/m²."""
         return luminance(self.rgb)
+
+
+def load_scene(
+    scene: Scene, *, base_dir: Union[None, str, "os.PathLike[str]"] = None
+) -> Dict[str, Any]:
+    """Loads a scene without rendering it, to see what a job would render.
+
+    Args:
+        scene: a scene file or a dict of the scene format's tables (as :func:`render`).
+        base_dir: where a dict's relative file names are resolved (default: the working
+            directory).
+
+    Returns:
+        A dict: ``path``, ``width`` and ``height`` (pixels), ``triangles``,
+        ``emissive_triangles``, ``frames`` (the animation's inclusive ``(first, last)``, or
+        None for a still), ``fps``, ``spp``, ``seed``, ``max_depth`` (the scene's render
+        settings) and ``luminance_scale`` (cd/m² per unit of radiance: multiply luminance by it
+        for :func:`threshold_map`).
+
+    Raises:
+        SceneError: the scene, a mesh or a texture cannot be loaded (the message names it).
+    """
+    return _aleph.load_scene(scene, base_dir=base_dir)
 
 
 def render_job(

@@ -125,6 +125,15 @@ def run(
     ``stats``) and the job's report. Raises SceneError, JobError, OutputError,
     KeyboardInterrupt (Ctrl-C) or the callback's exception."""
 
+def load_scene(
+    scene: Union[str, os.PathLike[str], Dict[str, Any]],
+    *,
+    base_dir: Union[None, str, os.PathLike[str]] = None,
+) -> Dict[str, Any]:
+    """The scene's ``path``, ``width``, ``height``, ``triangles``, ``emissive_triangles``,
+    ``frames`` ((first, last) or None), ``fps``, ``spp``, ``seed``, ``max_depth`` and
+    ``luminance_scale`` (cd/m² per unit). Raises SceneError."""
+
 def threshold_map(
     luminance: npt.NDArray[np.float32],
     ppd: Optional[float] = None,

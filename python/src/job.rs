@@ -140,6 +140,59 @@ impl RenderJob {
     }
 }
 
+/// Loads a scene, without rendering it: its size, geometry, lights and animation, as a dict
+/// (`path`, `width`, `height`, `triangles`, `emissive_triangles`, `frames` (first, last) or
+/// None, `fps`, `spp`, `seed`, `max_depth`, `luminance_scale` in cd/m² per unit of radiance).
+///
+/// # Errors
+/// `SceneError` naming the file and the problem, as `aleph render` reports it.
+#[pyfunction]
+#[pyo3(signature = (scene, *, base_dir=None))]
+pub fn load_scene<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, PyAny>,
+    base_dir: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (path, inline) = scene_source(scene, base_dir)?;
+    let s = py.detach(|| load(&path, inline.as_ref(), None))?;
+    let d = PyDict::new(py);
+    d.set_item("path", &s.path)?;
+    d.set_item("width", s.camera.width)?;
+    d.set_item("height", s.camera.height)?;
+    d.set_item("triangles", s.geometry.len())?;
+    d.set_item("emissive_triangles", s.lights.triangle_count())?;
+    d.set_item("frames", s.animation.map(|a| (a.frame_start, a.frame_end)))?;
+    d.set_item("fps", s.animation.map(|a| a.fps))?;
+    d.set_item("spp", s.settings.spp)?;
+    d.set_item("seed", s.settings.seed)?;
+    d.set_item("max_depth", s.settings.max_depth)?;
+    d.set_item("luminance_scale", s.settings.luminance_scale)?;
+    Ok(d)
+}
+
+/// Loads the scene at `path` (or described by `inline`), with `job`'s overrides.
+///
+/// # Errors
+/// `SceneError` naming the file.
+pub fn load(
+    path: &Path,
+    inline: Option<&Inline>,
+    job: Option<&Job>,
+) -> PyResult<aleph::scene::Scene> {
+    use aleph::scene::{Scene, SceneDescription};
+    let err = |e: aleph::error::SceneError| crate::job_error(e.into());
+    let desc = match inline {
+        Some(i) => SceneDescription::parse(&i.text, &i.origin),
+        None => SceneDescription::read(path),
+    }
+    .map_err(err)?;
+    let desc = match job {
+        Some(j) => j.with_overrides(desc),
+        None => desc,
+    };
+    Scene::load_description(desc).map_err(err)
+}
+
 /// The scene argument: a path (str or os.PathLike, made absolute as the CLI does) or a
 /// dictionary of the scene format's tables.
 fn scene_source(

@@ -83,6 +83,7 @@ fn _aleph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<job::RenderJob>()?;
     m.add_class::<run::Progress>()?;
     m.add_function(wrap_pyfunction!(run::run, m)?)?;
+    m.add_function(wrap_pyfunction!(job::load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(see::threshold_map, m)?)?;
     m.add_function(wrap_pyfunction!(see::diff, m)?)?;
     m.add_function(wrap_pyfunction!(see::tonemap, m)?)?;

@@ -261,13 +261,7 @@ fn thread_pool(threads: Option<usize>) -> PyResult<Option<rayon::ThreadPool>> {
 
 /// Loads the scene (from its file or dictionary) and runs the job.
 fn render(job: &RenderJob, collector: &Collector) -> PyResult<JobReport> {
-    let desc = match &job.inline {
-        Some(inline) => aleph::scene::SceneDescription::parse(&inline.text, &inline.origin),
-        None => aleph::scene::SceneDescription::read(&job.job.scene.path),
-    }
-    .map_err(|e| crate::job_error(e.into()))?;
-    let scene = aleph::scene::Scene::load_description(job.job.with_overrides(desc))
-        .map_err(|e| crate::job_error(e.into()))?;
+    let scene = crate::job::load(&job.job.scene.path, job.inline.as_ref(), Some(&job.job))?;
     let _ = collector
         .events
         .send(Event::Loaded(expected_samples(&job.job, &scene)));

@@ -181,3 +181,16 @@ def test_exception_carries_the_cli_message(tmp_path, cli, cornell, edit, kind):
         aleph.render(scene)
     assert str(scene) in str(e.value)
     assert f"aleph: error: {e.value}" in out.stderr
+
+
+def test_load_scene_describes_without_rendering(cornell, cornell_motion):
+    still = aleph.load_scene(cornell)
+    assert (still["width"], still["height"]) == (512, 512)
+    assert still["frames"] is None and still["luminance_scale"] > 0
+    # McGuire's CornellBox-Original: 2 emissive triangles (the ceiling light).
+    assert still["emissive_triangles"] == 2 and still["triangles"] > 30
+    motion = aleph.load_scene(cornell_motion)
+    # "2 s at 24 fps (frames 0-47)", as the scene file says.
+    assert motion["frames"] == (0, 47) and motion["fps"] == 24.0
+    with pytest.raises(aleph.SceneError):
+        aleph.load_scene(cornell.parent / "missing.toml")
