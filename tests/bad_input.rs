@@ -626,3 +626,52 @@ fn thread_counts_and_time_budgets_have_limits() {
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
     }
 }
+
+/// A viewer's pixels per degree or field of view far outside any display (`--ppd 1e6`,
+/// `--fov 1e-30`) renders in bounded time and memory: the adaptation window is then millions
+/// of images wide and the blur is the image's mean (issue 35, class 1: these aborted on a
+/// 68 GB allocation or looped forever in the tone operators' adaptation blur).
+#[test]
+fn extreme_viewing_conditions_render_in_bounded_memory() {
+    let dir = crate::util::tempdir();
+    let scene = crate::util::repo("scenes/cornell-box/scene.toml");
+    let uniform = ["--spp", "4", "--sampler", "uniform"];
+    for args in [
+        vec!["--ppd", "1e6", "--tonemap", "tr"],
+        vec!["--fov", "1e-30", "--tonemap", "wrp"],
+        vec!["--ppd", "1e30", "--sampler", "perceptual", "--spp", "160"],
+    ] {
+        let t = std::time::Instant::now();
+        let perceptual = args.contains(&"perceptual");
+        let r = Command::new(env!("CARGO_BIN_EXE_aleph"))
+            .current_dir(dir.path())
+            .arg("render")
+            .arg(&scene)
+            .args(["--resolution", "48x36"])
+            .args(if perceptual { &[][..] } else { &uniform[..] })
+            .args(&args)
+            .args(["-o", "x"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(r.status.success(), "{args:?}: {err}");
+        assert!(
+            t.elapsed().as_secs() < 20,
+            "{args:?} took {:?}",
+            t.elapsed()
+        );
+    }
+    let exr = crate::util::repo("tests/data/Desk.exr");
+    let r = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .current_dir(dir.path())
+        .args([
+            "tonemap",
+            exr.to_str().unwrap(),
+            "t.png",
+            "--fov",
+            "0.00001",
+        ])
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+}

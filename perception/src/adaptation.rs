@@ -202,12 +202,17 @@ pub fn adaptation_luminance(
     Ok(out)
 }
 
-/// The decimation at which a Gaussian of `sigma` full pixels is computed: the largest power of
-/// two at most σ/6, so that bilinear interpolation of the coarse result (error ≈ d²/8 · f'',
-/// with f'' ≲ f/σ² for a Gaussian-smoothed field) stays near 0.3 % of the local level.
-fn decimation(sigma: f64) -> usize {
+/// The decimation at which a Gaussian of `sigma` full pixels is computed on a `w × h` image:
+/// the largest power of two at most σ/6, so that bilinear interpolation of the coarse result
+/// (error ≈ d²/8 · f'', with f'' ≲ f/σ² for a Gaussian-smoothed field) stays near 0.3 % of the
+/// local level; and at most the image's smaller side, because the canvas is aligned to d (a
+/// window far wider than the image, from a huge pixels-per-degree, would otherwise ask for a
+/// canvas of d² pixels: 68 GB at 10⁶ ppd; the padding never exceeds the image size, and such a
+/// blur is the canvas mean either way).
+fn decimation(sigma: f64, w: usize, h: usize) -> usize {
+    let limit = w.min(h).max(1);
     let mut d = 1;
-    while (2 * d) as f64 <= sigma / 6.0 {
+    while 2 * d <= limit && (2 * d) as f64 <= sigma / 6.0 {
         d *= 2;
     }
     d
@@ -218,7 +223,7 @@ fn decimation(sigma: f64) -> usize {
 /// σ' = sqrt(σ²/d² − 1/12) coarse pixels (the blocks' own spread made up for) and interpolated
 /// bilinearly back at the image's pixel centres.
 fn gaussian_blur(src: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
-    let d = decimation(sigma);
+    let d = decimation(sigma, w, h);
     let pad = Padding::aligned(w, h, (4.0 * sigma).ceil() as usize, d);
     let canvas = pad.pad(src);
     let (cw, ch) = (pad.padded_width / d, pad.padded_height / d);
@@ -280,6 +285,25 @@ fn block_mean(canvas: &[f32], pw: usize, d: usize) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_window_far_wider_than_the_image_is_its_mean_in_bounded_memory() {
+        // 10⁶ and 10³⁰ pixels per degree (`--ppd 1e6`, `--fov 1e-30` on a small image): the
+        // 1° window is millions of images wide. Before the decimation was bounded by the image,
+        // the first asked for a 68 GB canvas and the second looped forever.
+        let (w, h) = (48, 36);
+        let img: Vec<f32> = (0..w * h).map(|i| 10.0 + (i % 7) as f32).collect();
+        let mean = img.iter().sum::<f32>() / img.len() as f32;
+        for ppd in [1e6, 1e30] {
+            let v = ViewingConditions::default().with_ppd(ppd).unwrap();
+            let a =
+                adaptation_luminance(&img, w, h, &v, AdaptationMode::LocalArithmetic, 1.0).unwrap();
+            // The mirror-padded canvas's mean differs from the image's by its margins' share.
+            for x in a {
+                assert!((x - mean).abs() < 0.02 * mean, "{ppd}: {x} against {mean}");
+            }
+        }
+    }
 
     #[test]
     fn constant_image_adapts_to_itself() {
@@ -355,7 +379,7 @@ mod tests {
         // is compensated. Odd sizes exercise the mirror-extended edge blocks.
         let view = ViewingConditions::default();
         let sigma = window_sigma_px(1.0, &view);
-        assert_eq!(decimation(sigma), 4);
+        assert_eq!(decimation(sigma, 1024, 1024), 4);
         let (w, h) = (301, 203);
         let smooth: Vec<f32> = (0..w * h)
             .map(|i| {
