@@ -4,6 +4,7 @@ sequences, with every sampler; scene dictionaries; threads; progress; errors."""
 import pathlib
 import subprocess
 import sys
+import time
 
 import numpy as np
 import OpenEXR
@@ -194,3 +195,30 @@ def test_load_scene_describes_without_rendering(cornell, cornell_motion):
     assert motion["frames"] == (0, 47) and motion["fps"] == 24.0
     with pytest.raises(aleph.SceneError):
         aleph.load_scene(cornell.parent / "missing.toml")
+
+
+def test_the_gil_is_released_while_rendering(cornell):
+    """Another Python thread keeps running during a render: it counts while the render takes
+    about a second. With the GIL held it would count only between progress calls."""
+    import threading
+
+    ticks = 0
+    done = threading.Event()
+
+    def count():
+        nonlocal ticks
+        while not done.is_set():
+            ticks += 1
+            time.sleep(0.001)
+
+    t = threading.Thread(target=count)
+    t.start()
+    t0 = time.monotonic()
+    try:
+        aleph.render(cornell, spp=64, resolution=(128, 128), sampler="uniform", threads=1)
+    finally:
+        done.set()
+        t.join()
+    elapsed = time.monotonic() - t0
+    # One tick per millisecond at most; allow a factor of ten for a busy machine.
+    assert ticks > 100 * elapsed, (ticks, elapsed)
