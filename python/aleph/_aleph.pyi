@@ -52,6 +52,15 @@ class RenderJob:
         aov: also write the false-colour OUTPUT.spp.png and OUTPUT.ratio.png (``--aov``).
         base_dir: where a dict scene's relative file names are resolved (default: the
             working directory).
+        sampling: the job record's ``[sampling]`` table as a dict, every option of the
+            adaptive loop by its TOML name: ``min_spp``, ``max_spp``, ``steer_from_spp``,
+            ``converged_fraction``, ``visibility`` (``"display"``/``"scene"``),
+            ``noise_threshold``, ``guide_spp``, ``error_estimate``, ``saliency``,
+            ``adaptation_window_deg``, ``latitude_ev``, ``ppd``, ``use_velocity``,
+            ``reuse_window``. Omitted fields keep their defaults; the keyword options above
+            override it.
+        display: the record's ``[display]`` table: ``operator``, ``exposure_ev``,
+            ``adaptation``, ``max_cd_m2``, ``ambient_cd_m2``, ``fov_deg``.
 
     Raises:
         JobError: an option out of range or contradicting another.
@@ -77,6 +86,8 @@ class RenderJob:
         output: Union[None, str, os.PathLike[str]] = None,
         aov: bool = False,
         base_dir: Union[None, str, os.PathLike[str]] = None,
+        sampling: Optional[Dict[str, Any]] = None,
+        display: Optional[Dict[str, Any]] = None,
     ) -> None: ...
     @staticmethod
     def from_toml(text: str) -> RenderJob:

@@ -47,6 +47,8 @@ pub struct Options<'py> {
     pub ppd: Option<f64>,
     pub output: Option<PathBuf>,
     pub aov: bool,
+    pub sampling: Option<Bound<'py, PyDict>>,
+    pub display: Option<Bound<'py, PyDict>>,
 }
 
 #[pymethods]
@@ -56,7 +58,7 @@ impl RenderJob {
     #[pyo3(signature = (scene, *, spp=None, time=None, sampler="perceptual".to_string(),
         resolution=None, seed=None, max_depth=None, frames=None, reuse_window=None,
         operator=None, exposure=None, fov=None, ppd=None, output=None, aov=false,
-        base_dir=None))]
+        base_dir=None, sampling=None, display=None))]
     #[allow(clippy::too_many_arguments)]
     fn new<'py>(
         scene: &Bound<'py, PyAny>,
@@ -75,6 +77,8 @@ impl RenderJob {
         output: Option<PathBuf>,
         aov: bool,
         base_dir: Option<PathBuf>,
+        sampling: Option<Bound<'py, PyDict>>,
+        display: Option<Bound<'py, PyDict>>,
     ) -> PyResult<RenderJob> {
         let (path, inline) = scene_source(scene, base_dir)?;
         let options = Options {
@@ -92,6 +96,8 @@ impl RenderJob {
             ppd,
             output,
             aov,
+            sampling,
+            display,
         };
         Ok(RenderJob {
             job: build(path, options)?,
@@ -237,6 +243,14 @@ fn build(path: PathBuf, o: Options<'_>) -> PyResult<Job> {
             )));
         }
     };
+    // The record's tables first (every option of the adaptive loop and the display, by the
+    // job's TOML names), then the keyword options over them.
+    if let Some(d) = &o.sampling {
+        job.sampling = table(d, "sampling")?;
+    }
+    if let Some(d) = &o.display {
+        job.display = table(d, "display")?;
+    }
     job.frames = frames(o.frames.as_ref())?;
     job.scene.resolution = o.resolution.map(|(w, h)| [w, h]);
     job.scene.seed = o.seed;
@@ -245,19 +259,25 @@ fn build(path: PathBuf, o: Options<'_>) -> PyResult<Job> {
         spp: o.spp,
         time_s: o.time,
     };
-    job.sampling.reuse_window = o.reuse_window;
-    job.sampling.ppd = o.ppd;
-    job.display.operator = o
-        .operator
-        .as_deref()
-        .map(crate::see::operator)
-        .transpose()?;
-    job.display.exposure_ev = o.exposure;
-    job.display.fov_deg = o.fov;
+    job.sampling.reuse_window = o.reuse_window.or(job.sampling.reuse_window);
+    job.sampling.ppd = o.ppd.or(job.sampling.ppd);
+    if let Some(op) = o.operator.as_deref() {
+        job.display.operator = Some(crate::see::operator(op)?);
+    }
+    job.display.exposure_ev = o.exposure.or(job.display.exposure_ev);
+    job.display.fov_deg = o.fov.or(job.display.fov_deg);
     job.output.stem = o.output.map(|s| strip_image_ext(&s));
     job.output.aov = o.aov;
     job.validate().map_err(crate::job_error)?;
     Ok(job)
+}
+
+/// A job table (`sampling`, `display`) from a dict with the TOML record's field names; the
+/// fields it omits keep their defaults.
+fn table<T: serde::de::DeserializeOwned>(d: &Bound<'_, PyDict>, what: &str) -> PyResult<T> {
+    let text = crate::convert::dict_to_toml(d)?;
+    toml::from_str(&text)
+        .map_err(|e| JobError::new_err(format!("{what}: {}", e.message().trim_end())))
 }
 
 /// `frames`: one frame number or an inclusive `(first, last)` pair.

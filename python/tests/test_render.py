@@ -222,3 +222,30 @@ def test_the_gil_is_released_while_rendering(cornell):
     elapsed = time.monotonic() - t0
     # One tick per millisecond at most; allow a factor of ten for a busy machine.
     assert ticks > 100 * elapsed, (ticks, elapsed)
+
+
+def test_record_tables_reach_every_option(tmp_path, cli, cornell):
+    """sampling= and display= set the options without keywords of their own, as the CLI's
+    flags do (same EXR), and refuse a field the record does not have."""
+    flags = ["--max-spp", "300", "--latitude", "0", "--steer-from", "100", "--display-max", "200"]
+    subprocess.run(
+        [cli, "render", cornell, "--spp", "150", "--resolution", "40x32", *flags,
+         "-o", tmp_path / "cli"],
+        check=True,
+        capture_output=True,
+    )
+    job = aleph.RenderJob(
+        cornell,
+        spp=150,
+        resolution=(40, 32),
+        sampling={"max_spp": 300, "latitude_ev": 0.0, "steer_from_spp": 100.0},
+        display={"max_cd_m2": 200.0},
+    )
+    assert "max_spp = 300" in job.to_toml()
+    r = aleph.render_job(job)
+    assert_matches_exr(r.rgb, r.aovs, exr_channels(tmp_path / "cli.exr"))
+    with pytest.raises(aleph.JobError, match="max_sp"):
+        aleph.RenderJob(cornell, sampling={"max_sp": 300})
+    # Without the table, the same budget is refused: spp above the per-pixel cap.
+    with pytest.raises(aleph.JobError, match="max_spp"):
+        aleph.render(cornell, spp=5000, resolution=(8, 8))
