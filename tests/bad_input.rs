@@ -107,7 +107,34 @@ fn missing_texture() {
     let mtl = "newmtl white\nKd 0.5 0.5 0.5\nmap_Kd nothere.png\n";
     let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", mtl)]);
     let e = fails(d.path(), &s, &[]);
-    assert_mentions(&e, &["nothere.png", "texture"]);
+    assert_mentions(
+        &e,
+        &[
+            "nothere.png",
+            "texture",
+            "m.mtl",
+            "material \"white\", map_Kd",
+        ],
+    );
+    // Options and no file: an error, not a texture silently left out (issue 35, class 9).
+    for (stmt, arg) in [
+        ("map_Kd", "-bm 1"),
+        ("map_d", "-imfchan r"),
+        ("bump", "-bm 2"),
+    ] {
+        let mtl = format!("newmtl white\nKd 0.5 0.5 0.5\n{stmt} {arg}\n");
+        let s = scene_with(d.path(), &toml, &[("m.mtl", &mtl)]);
+        let e = fails(d.path(), &s, &[]);
+        assert_mentions(
+            &e,
+            &[
+                "m.mtl",
+                "\"white\"",
+                "names no image file",
+                &format!("{stmt} {arg}"),
+            ],
+        );
+    }
 }
 
 #[test]
@@ -125,7 +152,10 @@ fn corrupt_texture() {
         ],
     );
     let e = fails(d.path(), &s, &[]);
-    assert_mentions(&e, &["bad.png", "texture"]);
+    assert_mentions(
+        &e,
+        &["bad.png", "texture", "m.mtl", "material \"white\", map_Kd"],
+    );
 }
 
 #[test]
@@ -307,7 +337,15 @@ fn a_resolution_beyond_memory_is_refused_with_the_figures() {
     let d = tempdir();
     let s = scene_with(d.path(), &format!("{CAMERA}{LIGHT}"), &[]);
     let e = fails(d.path(), &s, &["--resolution", "65536x65536"]);
-    assert_mentions(&e, &["scene.toml", "65536×65536", "GiB", "bytes per pixel"]);
+    assert_mentions(
+        &e,
+        &["--resolution", "65536×65536", "GiB", "bytes per pixel"],
+    );
+    // The same size from the scene file names the file and its key.
+    let camera = CAMERA.replace("[8, 8]", "[65536, 65536]");
+    let s = scene_with(d.path(), &format!("{camera}{LIGHT}"), &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "camera.resolution 65536×65536", "GiB"]);
 }
 
 /// Runs `aleph ARGS…`, expects exit 2, returns stderr.
@@ -400,6 +438,11 @@ fn tonemap_and_diff_name_the_file_and_the_bad_value() {
     let e = aleph_fails(&["tonemap".as_ref(), nan.as_os_str(), out.as_os_str()]);
     assert_mentions(&e, &["nan.exr", "whiteLuminance"]);
     assert!(!e.contains("--luminance-scale"), "{e}");
+    // Finite texels whose luminance overflows f32 once scaled: the file is named.
+    let huge = d.path().join("huge.exr");
+    exr_with_white(&huge, 3e38, 100.0);
+    let e = aleph_fails(&["tonemap".as_ref(), huge.as_os_str(), out.as_os_str()]);
+    assert_mentions(&e, &["huge.exr"]);
     assert!(!out.exists());
     let good = d.path().join("good.exr");
     exr_with_white(&good, 0.5, 100.0);
@@ -604,6 +647,16 @@ fn thread_counts_and_time_budgets_have_limits() {
         ),
         (vec!["--time", "1e300"], "got 1e300"),
         (vec!["--time=-1"], "(--time) must be a positive"),
+        // Flags are named as the flags, not as the scene file's keys.
+        (vec!["--max-depth", "0"], "(--max-depth) must be at least 1"),
+        (
+            vec!["--display-max=-1e308"],
+            "(--display-max) must be a positive",
+        ),
+        (
+            vec!["--display-ambient", "NaN"],
+            "(--display-ambient) must be",
+        ),
     ] {
         let t = std::time::Instant::now();
         let r = Command::new(env!("CARGO_BIN_EXE_aleph"))
@@ -617,6 +670,7 @@ fn thread_counts_and_time_budgets_have_limits() {
         let err = String::from_utf8_lossy(&r.stderr);
         assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(expect) && err.len() < 400, "{args:?}: {err}");
+        assert!(!err.contains("scene.toml"), "{args:?}: {err}");
         assert_eq!(err.matches("error").count(), 1, "{args:?}: {err}");
         assert!(
             t.elapsed().as_secs() < 10,
@@ -627,51 +681,141 @@ fn thread_counts_and_time_budgets_have_limits() {
     }
 }
 
-/// A viewer's pixels per degree or field of view far outside any display (`--ppd 1e6`,
-/// `--fov 1e-30`) renders in bounded time and memory: the adaptation window is then millions
-/// of images wide and the blur is the image's mean (issue 35, class 1: these aborted on a
-/// 68 GB allocation or looped forever in the tone operators' adaptation blur).
+/// Pixels per degree have a documented range, [1e-6, 1000] (issue 35, class 1): `--ppd 1e6`,
+/// `--fov 1e-30` and `tonemap --fov 1e-5` aborted on a 68 GB allocation or looped in the
+/// adaptation blur, and speedup's FLIP filters grew with ppd for hours; now they are refused
+/// before any work, naming the flag. At the edge of the range, and with an adaptation window
+/// millions of images wide, renders finish in bounded time and memory (the blur is the
+/// image's mean).
 #[test]
-fn extreme_viewing_conditions_render_in_bounded_memory() {
+fn extreme_viewing_conditions_are_refused_or_bounded() {
     let dir = crate::util::tempdir();
     let scene = crate::util::repo("scenes/cornell-box/scene.toml");
-    let uniform = ["--spp", "4", "--sampler", "uniform"];
-    for args in [
-        vec!["--ppd", "1e6", "--tonemap", "tr"],
-        vec!["--fov", "1e-30", "--tonemap", "wrp"],
-        vec!["--ppd", "1e30", "--sampler", "perceptual", "--spp", "160"],
-    ] {
+    let exr = crate::util::repo("tests/data/Desk.exr");
+    let run = |args: &[&str]| {
         let t = std::time::Instant::now();
-        let perceptual = args.contains(&"perceptual");
         let r = Command::new(env!("CARGO_BIN_EXE_aleph"))
             .current_dir(dir.path())
-            .arg("render")
-            .arg(&scene)
-            .args(["--resolution", "48x36"])
-            .args(if perceptual { &[][..] } else { &uniform[..] })
-            .args(&args)
-            .args(["-o", "x"])
+            .args(args)
             .output()
             .unwrap();
-        let err = String::from_utf8_lossy(&r.stderr);
-        assert!(r.status.success(), "{args:?}: {err}");
         assert!(
             t.elapsed().as_secs() < 20,
             "{args:?} took {:?}",
             t.elapsed()
         );
+        (
+            r.status.code(),
+            String::from_utf8_lossy(&r.stderr).to_string(),
+        )
+    };
+    let s = scene.to_str().unwrap();
+    let render = ["render", s, "--resolution", "48x36", "-o", "x"];
+    let uniform = ["--spp", "4", "--sampler", "uniform"];
+    for (extra, flag) in [
+        (&["--ppd", "1e6", "--tonemap", "tr"][..], "(--ppd)"),
+        (&["--ppd", "1e-308"][..], "(--ppd)"),
+        (&["--fov", "1e-30", "--tonemap", "wrp"][..], "(--fov)"),
+    ] {
+        let (code, err) = run(&[&render[..], &uniform[..], extra].concat());
+        assert_eq!(code, Some(2), "{extra:?}: {err}");
+        assert_mentions(&err, &[flag, "pixels per degree", "[1e-6, 1000]"]);
     }
-    let exr = crate::util::repo("tests/data/Desk.exr");
-    let r = Command::new(env!("CARGO_BIN_EXE_aleph"))
-        .current_dir(dir.path())
-        .args([
-            "tonemap",
-            exr.to_str().unwrap(),
-            "t.png",
-            "--fov",
-            "0.00001",
-        ])
+    let (code, err) = run(&[
+        "tonemap",
+        exr.to_str().unwrap(),
+        "t.png",
+        "--fov",
+        "0.00001",
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert_mentions(&err, &["--fov", "pixels per degree"]);
+    for extra in [
+        &["--ppd", "1000", "--tonemap", "tr", "--spp", "4"][..],
+        &[
+            "--sampler",
+            "perceptual",
+            "--spp",
+            "160",
+            "--adaptation-window",
+            "1e30",
+        ][..],
+    ] {
+        let (code, err) = run(&[&render[..], extra].concat());
+        assert_eq!(code, Some(0), "{extra:?}: {err}");
+    }
+}
+
+/// A `w × h` EXR whose RGB at (x, y) is `f(x, y)`.
+fn exr_from(path: &Path, w: usize, h: usize, f: impl Fn(usize, usize) -> f32 + Sync) {
+    use exr::prelude::*;
+    let layer = Layer::new(
+        (w, h),
+        LayerAttributes::default(),
+        Encoding::UNCOMPRESSED,
+        SpecificChannels::rgb(|p: Vec2<usize>| {
+            let v = f(p.x(), p.y());
+            (v, v, v)
+        }),
+    );
+    Image::from_layer(layer).write().to_file(path).unwrap();
+}
+
+/// Environment maps near f32::MAX were called "black everywhere" (their sampling
+/// distribution's row sums overflowed); negative texels were clamped without a word.
+#[test]
+fn environment_maps_say_what_is_wrong_with_them() {
+    let d = tempdir();
+    let toml = |strength: f32| {
+        format!(
+            "[camera]\nposition = [0, 1, 3]\nlook_at = [0, 0, 0]\nvfov_deg = 40.0\nresolution = [8, 6]\n\
+             [render]\nspp = 2\n[[mesh]]\nfile = \"t.obj\"\n[[light]]\ntype = \"environment\"\n\
+             file = \"env.exr\"\nstrength = {strength:?}\n"
+        )
+    };
+    let env = d.path().join("env.exr");
+    exr_from(&env, 8, 4, |_, _| 1e38);
+    let s = scene_with(d.path(), &toml(1.0), &[("t.obj", TRI_OBJ), ("m.mtl", MTL)]);
+    let e = fails(d.path(), &s, &[]);
+    assert!(!e.contains("black"), "{e}");
+    assert_mentions(&e, &["scene.toml", "[[light]] #1", "overflows"]);
+    exr_from(&env, 8, 4, |_, _| 3e38);
+    let s = scene_with(d.path(), &toml(10.0), &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["env.exr", "texel (0, 0)", "strength 10", "overflows"]);
+    // One negative texel: clamped, rendered, and said.
+    exr_from(&env, 8, 4, |x, y| if (x, y) == (3, 1) { -2.0 } else { 0.5 });
+    let s = scene_with(d.path(), &toml(1.0), &[]);
+    let out = Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args(["render".as_ref(), s.as_os_str(), "-o".as_ref()])
+        .arg(d.path().join("ok"))
         .output()
         .unwrap();
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{e}");
+    assert_mentions(&e, &["env.exr", "3 negative texel values clamped"]);
+}
+
+/// Object selections that load nothing were an empty mesh without a word (issue 35, class 9).
+#[test]
+fn object_selections_that_load_nothing_are_refused() {
+    let d = tempdir();
+    let obj =
+        "mtllib m.mtl\nv -1 0 -1\nv 1 0 -1\nv 0 0 1\no a\nusemtl white\nf 1 2 3\no b\nf 1 3 2\n";
+    for (select, expect) in [
+        ("objects = []", "objects = [] selects no object"),
+        (
+            "exclude_objects = [\"a\", \"b\"]",
+            "leave none of the file's objects [\"a\", \"b\"]",
+        ),
+        (
+            "objects = [\"a\"]\nexclude_objects = [\"a\"]",
+            "\"a\" is in both objects and exclude_objects",
+        ),
+    ] {
+        let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n{select}\n");
+        let s = scene_with(d.path(), &toml, &[("t.obj", obj), ("m.mtl", MTL)]);
+        let e = fails(d.path(), &s, &[]);
+        assert_mentions(&e, &["scene.toml", "[[mesh]] #1", "t.obj", expect]);
+    }
 }

@@ -574,3 +574,40 @@ fn farm_options_cannot_inject_lines_into_the_batch_script() {
             .all(|l| l.starts_with('#') || l.starts_with("exec ") || l.is_empty())
     );
 }
+
+/// `farm finish` before the tasks are done names the missing ones as ranges: 3000 tasks were
+/// 3000 indices in one message (a million were 7.9 MB; issue 35, class 8).
+#[test]
+fn finish_names_missing_tasks_as_ranges() {
+    let dir = tempdir();
+    let d = dir.path();
+    let farm = d.join("f");
+    let scene = repo("scenes/cornell-box/scene.toml");
+    let args = [
+        "farm",
+        "slurm",
+        scene.to_str().unwrap(),
+        "--split-samples",
+        "3000",
+        "-o",
+        farm.to_str().unwrap(),
+        "--",
+        "--sampler",
+        "uniform",
+        "--spp",
+        "3000",
+        "--resolution",
+        "4x4",
+    ];
+    ok(&aleph(&args, d));
+    for i in [1, 3] {
+        run_script(&farm.join("render.sbatch"), Some(i));
+    }
+    let out = aleph(&["farm", "finish", farm.to_str().unwrap()], d);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("2998 of 3000 tasks have no outputs yet: 0, 2, 4-2999") && e.len() < 300,
+        "{e}"
+    );
+}

@@ -11,6 +11,7 @@ mod diff;
 mod farm;
 mod furnace;
 mod fuzz;
+mod fuzz_options;
 mod golden;
 mod job;
 mod lights;

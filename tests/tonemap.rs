@@ -131,7 +131,7 @@ fn bad_input_is_a_clear_error_with_nothing_written() {
     );
     check(
         &["tonemap", desk.to_str().unwrap(), o, "--display-max", "-5"],
-        &["display max"],
+        &["--display-max", "got -5"],
     );
     check(&["tonemap", desk.to_str().unwrap()], &["nothing to write"]);
 }

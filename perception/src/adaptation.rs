@@ -288,14 +288,19 @@ mod tests {
 
     #[test]
     fn a_window_far_wider_than_the_image_is_its_mean_in_bounded_memory() {
-        // 10⁶ and 10³⁰ pixels per degree (`--ppd 1e6`, `--fov 1e-30` on a small image): the
-        // 1° window is millions of images wide. Before the decimation was bounded by the image,
-        // the first asked for a 68 GB canvas and the second looped forever.
+        // 10⁶ and 10³⁰ pixels per degree (`--ppd 1e6`, `--fov 1e-30` on a small image, now
+        // refused by the constructors but reachable through the public field, as is a window
+        // of 1e30 degrees): the 1° window is millions of images wide. Before the decimation
+        // was bounded by the image, the first asked for a 68 GB canvas and the second looped
+        // forever.
         let (w, h) = (48, 36);
         let img: Vec<f32> = (0..w * h).map(|i| 10.0 + (i % 7) as f32).collect();
         let mean = img.iter().sum::<f32>() / img.len() as f32;
         for ppd in [1e6, 1e30] {
-            let v = ViewingConditions::default().with_ppd(ppd).unwrap();
+            let v = ViewingConditions {
+                ppd,
+                ..ViewingConditions::default()
+            };
             let a =
                 adaptation_luminance(&img, w, h, &v, AdaptationMode::LocalArithmetic, 1.0).unwrap();
             // The mirror-padded canvas's mean differs from the image's by its margins' share.

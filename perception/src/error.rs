@@ -66,13 +66,28 @@ pub enum PerceptionError {
         value: f32,
     },
     /// A parameter is outside its valid range; the message gives the range.
-    #[error("{name} = {value} is out of range: {range}")]
+    #[error("{name} = {value:?} is out of range: {range}")]
     Parameter {
         /// Parameter name.
         name: &'static str,
         /// The value given.
         value: f64,
         /// The valid range, in words.
+        range: &'static str,
+    },
+    /// A field of view that puts too many or too few pixels in a degree.
+    #[error(
+        "a field of view of {fov_deg:?}° over {width_px} pixels gives {ppd:?} pixels per \
+         degree, outside {range}"
+    )]
+    FieldOfView {
+        /// The horizontal field of view, degrees.
+        fov_deg: f64,
+        /// The image width, pixels.
+        width_px: f64,
+        /// The pixels per degree it gives.
+        ppd: f64,
+        /// The valid range of pixels per degree, in words.
         range: &'static str,
     },
 }

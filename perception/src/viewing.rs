@@ -19,6 +19,34 @@ pub const DEFAULT_VIEWING_DISTANCE_M: f64 = 0.7;
 /// Default frame rate for velocities, frames per second.
 pub const DEFAULT_FPS: f64 = 24.0;
 
+/// The most pixels per degree the viewer model takes: 1000, beyond eight times the grid the
+/// eye's acuity limit needs (about 60 cycles per degree, so 120 pixels per degree at Nyquist).
+/// Past it a pixel is invisible on its own, and filters sized in degrees (the adaptation
+/// window, FLIP's spatial filters) grow with ppd for nothing.
+pub const MAX_PPD: f64 = 1000.0;
+
+/// The fewest pixels per degree the viewer model takes: 1e-6, a pixel a million degrees wide
+/// (a 1-pixel image reaches it only within 0.001° of a 180° field of view). Below it the
+/// single-precision models (FLIP's filters) lose the value to underflow.
+pub const MIN_PPD: f64 = 1e-6;
+
+/// The range of [`MIN_PPD`] and [`MAX_PPD`], in words.
+const PPD_RANGE: &str = "[1e-6, 1000] pixels per degree: past 1000 a pixel is far below the \
+                         eye's acuity (about 60 cycles per degree); below 1e-6 it is a million \
+                         degrees wide";
+
+fn ppd_in_range(name: &'static str, value: f64, ppd: f64) -> Result<()> {
+    if (MIN_PPD..=MAX_PPD).contains(&ppd) {
+        Ok(())
+    } else {
+        Err(PerceptionError::Parameter {
+            name,
+            value,
+            range: PPD_RANGE,
+        })
+    }
+}
+
 /// How the image is seen.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ViewingConditions {
@@ -47,7 +75,8 @@ impl ViewingConditions {
     /// `screen_width_px` pixels across, seen from `distance_m`: ppd = d (r/w) π/180 (FLIP).
     ///
     /// # Errors
-    /// [`PerceptionError::Parameter`] if any argument is not a positive finite number.
+    /// [`PerceptionError::Parameter`] if any argument is not a positive finite number, or the
+    /// pixels per degree fall outside [[`MIN_PPD`], [`MAX_PPD`]].
     pub fn from_display(
         screen_width_m: f64,
         distance_m: f64,
@@ -56,8 +85,10 @@ impl ViewingConditions {
         positive("screen_width_m", screen_width_m)?;
         positive("distance_m", distance_m)?;
         positive("screen_width_px", screen_width_px)?;
+        let ppd = distance_m * (screen_width_px / screen_width_m) * std::f64::consts::PI / 180.0;
+        ppd_in_range("pixels per degree of the display", ppd, ppd)?;
         Ok(ViewingConditions {
-            ppd: distance_m * (screen_width_px / screen_width_m) * std::f64::consts::PI / 180.0,
+            ppd,
             distance_m,
             fps: DEFAULT_FPS,
         })
@@ -68,7 +99,8 @@ impl ViewingConditions {
     ///
     /// # Errors
     /// [`PerceptionError::Parameter`] if the field of view is not in (0, 180) degrees or the
-    /// width is not positive.
+    /// width is not positive; [`PerceptionError::FieldOfView`] if its pixels per degree fall
+    /// outside [[`MIN_PPD`], [`MAX_PPD`]].
     pub fn from_fov(hfov_deg: f64, width_px: f64) -> Result<Self> {
         if !(hfov_deg > 0.0 && hfov_deg < 180.0) {
             return Err(PerceptionError::Parameter {
@@ -79,8 +111,17 @@ impl ViewingConditions {
         }
         positive("width_px", width_px)?;
         let half = (hfov_deg / 2.0).to_radians();
+        let ppd = (width_px / 2.0) / half.tan() * std::f64::consts::PI / 180.0;
+        if !(MIN_PPD..=MAX_PPD).contains(&ppd) {
+            return Err(PerceptionError::FieldOfView {
+                fov_deg: hfov_deg,
+                width_px,
+                ppd,
+                range: PPD_RANGE,
+            });
+        }
         Ok(ViewingConditions {
-            ppd: (width_px / 2.0) / half.tan() * std::f64::consts::PI / 180.0,
+            ppd,
             distance_m: DEFAULT_VIEWING_DISTANCE_M,
             fps: DEFAULT_FPS,
         })
@@ -90,9 +131,9 @@ impl ViewingConditions {
     /// display).
     ///
     /// # Errors
-    /// [`PerceptionError::Parameter`] if `ppd` is not positive and finite.
+    /// [`PerceptionError::Parameter`] if `ppd` is not in [[`MIN_PPD`], [`MAX_PPD`]].
     pub fn with_ppd(mut self, ppd: f64) -> Result<Self> {
-        positive("pixels per degree", ppd)?;
+        ppd_in_range("pixels per degree", ppd, ppd)?;
         self.ppd = ppd;
         Ok(self)
     }

@@ -328,10 +328,12 @@ def diff(
             display white, as ``aleph diff``).
         ppd: pixels per degree; default a 45° field of view (pdiff's, as ``aleph diff``).
         fov: horizontal field of view in degrees instead.
-        fail_pixels: "different" from this many visibly different pixels (pdiff's 100).
+        fail_pixels: "different" from this many visibly different pixels (pdiff's 100); at
+            least 1.
 
     Raises:
-        PerceptionError: NaN, infinite or negative values; ValueError: shapes differ.
+        PerceptionError: NaN, infinite or negative values, or a ppd or fov that puts outside
+            [1e-6, 1000] pixels in a degree; ValueError: shapes differ, fail_pixels is 0.
     """
 
     def lum(a: np.ndarray, name: str) -> np.ndarray:

@@ -125,6 +125,11 @@ pub fn diff<'py>(
     fov: Option<f64>,
     fail_pixels: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
+    if fail_pixels == 0 {
+        return Err(PyValueError::new_err(
+            "fail_pixels must be at least 1 (0 would call identical images different)",
+        ));
+    }
     let (r, w, h) = plane(&reference, "reference")?;
     let (t, tw, th) = plane(&test, "test")?;
     if (tw, th) != (w, h) {

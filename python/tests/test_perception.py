@@ -72,6 +72,11 @@ def test_diff_sees_a_step_above_threshold_only():
     assert a.visible_pixels == 0 and not a.different
     assert b.visible_pixels >= 32 * 32 * 0.9 and b.different
     assert b.ratio.shape == (64, 64)
+    with pytest.raises(ValueError, match="fail_pixels"):
+        aleph.diff(ref, ref, 30.0, fail_pixels=0)
+    # Pixels per degree have the CLI's range.
+    with pytest.raises(aleph.PerceptionError, match="1000"):
+        aleph.diff(ref, ref, 1e6)
 
 
 def test_diff_of_rgb_uses_the_luminance_scale():

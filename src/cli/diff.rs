@@ -20,18 +20,22 @@ pub struct DiffArgs {
     reference: PathBuf,
     /// Test image, same size.
     test: PathBuf,
-    /// Horizontal field of view the image fills, degrees (pdiff's default: 45).
+    /// Horizontal field of view the image fills, degrees (pdiff's default: 45); it must put
+    /// 1e-6 to 1000 pixels in a degree.
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     fov: Option<f64>,
-    /// Pixels per degree instead of a field of view (FLIP's monitor default is 67).
+    /// Pixels per degree instead of a field of view, 1e-6 to 1000 (FLIP's monitor default is
+    /// 67).
     #[arg(long, value_name = "PPD", conflicts_with = "fov")]
     ppd: Option<f64>,
     /// cd/m² per unit of linear (EXR/HDR) values. Default: the EXR's whiteLuminance attribute
     /// if present, else 100 (value 1 = a 100 cd/m² display white). PNG/JPEG white is 100 cd/m².
     #[arg(long, value_name = "K", allow_negative_numbers = true)]
     luminance_scale: Option<f32>,
-    /// "Different" from this many visibly different pixels (pdiff's default: 100).
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_FAIL_PIXELS)]
+    /// "Different" from this many visibly different pixels (pdiff's default: 100); at least 1
+    /// (1 fails on any visible pixel; 0 would call identical images different).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_FAIL_PIXELS,
+        value_parser = at_least_one)]
     fail_pixels: usize,
     /// Write a difference map: the reference's luminance in grey, visible differences in red
     /// (brighter = further above threshold).
@@ -79,15 +83,9 @@ pub fn run(args: DiffArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let view = match (args.ppd, args.fov) {
-        (Some(ppd), _) => {
-            if !(ppd.is_finite() && ppd > 0.0) {
-                bail!("--ppd must be a positive number, got {ppd}");
-            }
-            ViewingConditions {
-                ppd,
-                ..ViewingConditions::default()
-            }
-        }
+        (Some(ppd), _) => ViewingConditions::default()
+            .with_ppd(ppd)
+            .context("--ppd")?,
         (None, fov) => ViewingConditions::from_fov(fov.unwrap_or(DEFAULT_FOV_DEG), r.width as f64)
             .context("--fov")?,
     };
@@ -150,4 +148,13 @@ pub fn run(args: DiffArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// `--fail-pixels`: a count of at least 1.
+fn at_least_one(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(0) => Err("must be at least 1 (0 would call identical images different)".into()),
+        Ok(n) => Ok(n),
+        Err(e) => Err(e.to_string()),
+    }
 }

@@ -505,8 +505,18 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
     let absolute = |p: &Path| std::path::absolute(p).with_context(|| p.display().to_string());
     let scene = absolute(&a.scene.clone().unwrap_or_else(default_scene))?;
     let dir = absolute(&a.output)?;
-    for (what, p) in [("-o", &dir), ("the scene", &scene)] {
-        if p.to_string_lossy().chars().any(char::is_control) {
+    let aleph = match &a.aleph {
+        Some(p) => absolute(p)?,
+        None => std::env::current_exe().context("the aleph binary's path")?,
+    };
+    for (what, p) in [("-o", &dir), ("the scene", &scene), ("--aleph", &aleph)] {
+        let Some(text) = p.to_str() else {
+            bail!(
+                "{what} {:?}: a path that is not UTF-8 cannot go into the farm's manifest",
+                p
+            );
+        };
+        if text.chars().any(char::is_control) {
             bail!(
                 "{what} {:?}: a path with control characters cannot go into a batch script",
                 p
@@ -519,10 +529,6 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
         .or_else(|| scene.parent().and_then(|p| p.file_name()))
         .map(|s| s.to_string_lossy().to_string())
         .unwrap_or_else(|| "render".into());
-    let aleph = match &a.aleph {
-        Some(p) => absolute(p)?,
-        None => std::env::current_exe().context("the aleph binary's path")?,
-    };
     let desc = aleph::scene::SceneDescription::read(&scene)?;
     let frames = match (a.frames, &desc.animation) {
         (Some((x, y)), _) => Some([x, y]),
@@ -678,23 +684,51 @@ fn task_times(dir: &Path, n: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// Sorted task indices as ranges ("0-3, 7, 9-12"), at most `max` of them, then how many
+/// more ranges there are: a million missing tasks is one line, not every index.
+fn index_ranges(sorted: &[usize], max: usize) -> String {
+    let mut ranges: Vec<(usize, usize)> = Vec::new();
+    for &i in sorted {
+        match ranges.last_mut() {
+            Some((_, b)) if *b + 1 == i => *b = i,
+            _ => ranges.push((i, i)),
+        }
+    }
+    let shown: Vec<String> = ranges
+        .iter()
+        .take(max)
+        .map(|&(a, b)| {
+            if a == b {
+                a.to_string()
+            } else {
+                format!("{a}-{b}")
+            }
+        })
+        .collect();
+    let more = ranges.len().saturating_sub(max);
+    if more > 0 {
+        format!("{} and {more} more ranges", shown.join(", "))
+    } else {
+        shown.join(", ")
+    }
+}
+
 fn finish(a: FinishArgs) -> anyhow::Result<ExitCode> {
     let start = now_s();
     let clock = Instant::now();
     let dir = std::path::absolute(&a.dir).context("the farm directory")?;
     let m = Manifest::read(&dir)?;
     let tasks = m.tasks();
-    let missing: Vec<String> = tasks
-        .iter()
-        .enumerate()
-        .filter(|(_, t)| !m.task_done(&dir, **t))
-        .map(|(i, _)| i.to_string())
+    let missing: Vec<usize> = (0..tasks.len())
+        .filter(|&i| !m.task_done(&dir, tasks[i]))
         .collect();
     if !missing.is_empty() {
         bail!(
-            "{}: tasks {} have no outputs yet",
+            "{}: {} of {} tasks have no outputs yet: {}",
             dir.display(),
-            missing.join(", ")
+            missing.len(),
+            tasks.len(),
+            index_ranges(&missing, 20)
         );
     }
     let merge_start = Instant::now();

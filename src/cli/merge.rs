@@ -45,6 +45,10 @@ pub fn run(args: MergeArgs) -> anyhow::Result<ExitCode> {
         .map(|p| absolute(p))
         .collect::<Result<_, _>>()?;
     let stem = absolute(&strip_image_ext(&args.output))?;
+    // Before reading any part: the output's directory exists.
+    let mut exr = stem.clone().into_os_string();
+    exr.push(".exr");
+    aleph::output::check_output_location(Path::new(&exr))?;
     let r = with_threads(args.threads, move || aleph::job::merge(&parts, &stem))??;
     println!(
         "{}: merged {} {}, {:.1} spp, {}×{}, {:.2} s ({:.2} s reading and summing) -> {}, {} \

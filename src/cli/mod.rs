@@ -44,7 +44,15 @@ enum Command {
 pub const EXIT_ERROR: u8 = 2;
 
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if e.kind() == clap::error::ErrorKind::InvalidUtf8 => {
+            // clap's message names no argument; name the first that is not text.
+            eprintln!("aleph: error: {}", non_utf8_argument());
+            return ExitCode::from(EXIT_ERROR);
+        }
+        Err(e) => e.exit(),
+    };
     let result = match cli.command {
         Command::Render(args) => render::run(args),
         Command::Merge(args) => merge::run(args),
@@ -59,6 +67,28 @@ pub fn main() -> ExitCode {
             eprintln!("aleph: error: {e:#}");
             ExitCode::from(EXIT_ERROR)
         }
+    }
+}
+
+/// Names the first command-line argument that is not valid UTF-8 (lossily shown), and the
+/// option it belongs to: that option takes text, not arbitrary bytes.
+fn non_utf8_argument() -> String {
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let Some(i) = args.iter().position(|a| a.to_str().is_none()) else {
+        return "an argument is not valid UTF-8".into();
+    };
+    let shown = args[i].to_string_lossy();
+    let option = match shown.split_once('=') {
+        Some((flag, _)) if flag.starts_with("--") => Some(flag.to_string()),
+        _ => args
+            .get(i.wrapping_sub(1))
+            .and_then(|a| a.to_str())
+            .filter(|a| a.starts_with('-'))
+            .map(str::to_string),
+    };
+    match option {
+        Some(o) => format!("{o}: the value {shown:?} is not valid UTF-8 (this option takes text)"),
+        None => format!("argument {i} ({shown:?}) is not valid UTF-8"),
     }
 }
 

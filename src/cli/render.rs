@@ -169,8 +169,8 @@ pub struct SamplingArgs {
         help_heading = "Adaptive sampling"
     )]
     pub latitude: f64,
-    /// Pixels per degree of the viewer (default: FLIP's 0.7 m, 3840-pixel monitor at 0.7 m,
-    /// 67.0 ppd).
+    /// Pixels per degree of the viewer, 1e-6 to 1000 (default: FLIP's 0.7 m, 3840-pixel
+    /// monitor at 0.7 m, 67.0 ppd).
     #[arg(long, value_name = "PPD", help_heading = "Adaptive sampling")]
     pub ppd: Option<f64>,
     /// Sequences: ignore the velocity map in the perceptual threshold (judge every frame as a

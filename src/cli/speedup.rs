@@ -60,10 +60,21 @@ pub fn run(args: SpeedupArgs) -> anyhow::Result<ExitCode> {
     let scene_path = args.scene.clone().unwrap_or_else(default_scene);
     let mut desc = SceneDescription::read(&scene_path)?;
     let (w, h) = args.resolution.unwrap_or((256, 256));
+    if w == 0 || h == 0 || w > 65536 || h > 65536 {
+        bail!("--resolution must be in 1..=65536 on both axes, got {w}×{h}");
+    }
+    aleph::scene::check_memory(w, h).map_err(|m| anyhow::anyhow!("--resolution: {m}"))?;
     desc.camera.resolution = [w, h];
     desc.render.seed = Some(args.seed);
     if args.budgets.is_empty() || args.budgets.iter().any(|b| !(b.is_finite() && *b >= 1.0)) {
         bail!("--budgets must be numbers ≥ 1, got {:?}", args.budgets);
+    }
+    let cap = args.sampling.max_spp;
+    if let Some(b) = args.budgets.iter().find(|&&b| b > cap as f64) {
+        bail!(
+            "--budgets {b}: more than --max-spp {cap}, the most any one pixel takes, so the \
+             perceptual sampler could not spend it; raise --max-spp"
+        );
     }
     if args.reference_spp < 2 {
         bail!("--reference-spp must be at least 2");
@@ -412,6 +423,19 @@ const SERIES: [Series; 5] = [
     (Arm::Reuse, RGBColor(40, 160, 80)),
 ];
 
+/// A log-axis range around the positive finite values of `v` (20 % margins), never below
+/// `floor` and always ascending by at least a factor of two: scores of 0 everywhere, or none
+/// finite, still give an axis (plotters' log axis loops on an empty or reversed range).
+fn log_range(v: &[f64], floor: f64) -> (f64, f64) {
+    let ok = v.iter().copied().filter(|x| x.is_finite() && *x > 0.0);
+    let lo = ok.clone().fold(f64::INFINITY, f64::min);
+    let hi = ok.fold(0.0, f64::max);
+    if !lo.is_finite() {
+        return (floor, floor * 1e4);
+    }
+    let lo = (lo * 0.8).max(floor);
+    (lo, (hi * 1.25).max(lo * 2.0))
+}
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     rows: &[Row],
@@ -437,23 +461,14 @@ where
         let (xname, xf) = axes[pi % 2];
         let xs: Vec<f64> = rows.iter().map(xf).collect();
         let ys: Vec<f64> = rows.iter().map(mf).chain([fl]).collect();
-        let (x0, x1) = (
-            xs.iter().cloned().fold(f64::INFINITY, f64::min) * 0.8,
-            xs.iter().cloned().fold(0.0, f64::max) * 1.25,
-        );
-        let (y0, y1) = (
-            ys.iter().cloned().fold(f64::INFINITY, f64::min).max(1e-5) * 0.8,
-            ys.iter().cloned().fold(0.0, f64::max) * 1.25,
-        );
+        let (x0, x1) = log_range(&xs, 1e-4);
+        let (y0, y1) = log_range(&ys, 1e-5);
         let mut chart = ChartBuilder::on(panel)
             .caption(format!("{mname} vs {xname}"), ("sans-serif", 18))
             .margin(10)
             .x_label_area_size(36)
             .y_label_area_size(56)
-            .build_cartesian_2d(
-                (x0.max(1e-4)..x1.max(x0 * 2.0)).log_scale(),
-                (y0..y1).log_scale(),
-            )
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
             .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()

@@ -4,7 +4,7 @@ use aleph::display::{ToneMapSettings, contact_sheet, tone_map};
 use aleph::imageio::read_image;
 use aleph::job::DisplaySpec;
 use aleph::output::{AtomicOutputs, encode_srgb8, write_exr, write_png};
-use anyhow::bail;
+use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use perception::adaptation::AdaptationMode;
 use perception::tmo::Operator;
@@ -68,14 +68,15 @@ pub struct ToneArgs {
     /// Adaptation luminance (WRP always uses its own 1° foveal histogram).
     #[arg(long, value_enum, default_value = "local")]
     pub adaptation: AdaptationArg,
-    /// Maximum display luminance, cd/m² (defaults: TR/FPSG 125, WRP 100, PTYG 5 × ambient).
+    /// Maximum display luminance, cd/m², up to 1e5 (defaults: TR/FPSG 125, WRP 100, PTYG
+    /// 5 × ambient).
     #[arg(long, value_name = "CD", allow_negative_numbers = true)]
     pub display_max: Option<f64>,
-    /// Display adaptation luminance L_da, cd/m² (TR, FPSG, PTYG; default 25).
+    /// Display adaptation luminance L_da, cd/m², up to 1e5 (TR, FPSG, PTYG; default 25).
     #[arg(long, value_name = "CD", allow_negative_numbers = true)]
     pub display_ambient: Option<f64>,
-    /// Horizontal field of view the image fills, degrees, for the 1° window (default: FLIP's
-    /// monitor, 67 pixels per degree).
+    /// Horizontal field of view the image fills, degrees, for the 1° window; it must put 1e-6
+    /// to 1000 pixels in a degree (default: FLIP's monitor, 67 pixels per degree).
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub fov: Option<f64>,
 }
@@ -130,6 +131,9 @@ pub fn run(args: TonemapArgs) -> anyhow::Result<ExitCode> {
     if args.output.is_none() && args.contact_sheet.is_none() {
         bail!("nothing to write: give OUT (.png or .exr) or --contact-sheet OUT.png");
     }
+    for out in args.output.iter().chain(&args.contact_sheet) {
+        aleph::output::check_output_location(out)?;
+    }
     let img = read_image(&args.input)?;
     let k = img.luminance_scale(&args.input, args.luminance_scale)?;
     if img.is_black() {
@@ -141,6 +145,13 @@ pub fn run(args: TonemapArgs) -> anyhow::Result<ExitCode> {
     let op: Operator = args.operator.into();
     let settings = args.tone.settings(op, img.width, k)?;
     let (w, h) = (img.width as u32, img.height as u32);
+    // The model's errors (a luminance that overflows once scaled) name the input file.
+    let within = || {
+        format!(
+            "{}: tone mapping its radiance at {k} cd/m² per unit",
+            args.input.display()
+        )
+    };
     let mut out = AtomicOutputs::new();
     if let Some(path) = &args.output {
         let ext = path
@@ -148,7 +159,7 @@ pub fn run(args: TonemapArgs) -> anyhow::Result<ExitCode> {
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase)
             .unwrap_or_default();
-        let display = tone_map(&img.rgb, img.width, img.height, &settings)?;
+        let display = tone_map(&img.rgb, img.width, img.height, &settings).with_context(within)?;
         match ext.as_str() {
             "png" => {
                 let bytes = encode_srgb8(&display);
@@ -169,7 +180,8 @@ pub fn run(args: TonemapArgs) -> anyhow::Result<ExitCode> {
         }
     }
     if let Some(path) = &args.contact_sheet {
-        let (bytes, sw, sh) = contact_sheet(&img.rgb, img.width, img.height, &settings)?;
+        let (bytes, sw, sh) =
+            contact_sheet(&img.rgb, img.width, img.height, &settings).with_context(within)?;
         out.stage(path, |wr| write_png(wr, path, sw, sh, &bytes))?;
     }
     out.commit()?;

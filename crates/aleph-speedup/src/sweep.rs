@@ -312,9 +312,9 @@ pub fn frame_list(
     };
     match (scene.animation, range) {
         (None, None) => Ok(vec![None]),
-        (None, Some(_)) => {
-            bad("frames need an animated scene (this one has no [animation] table)".into())
-        }
+        (None, Some(_)) => bad(
+            "frames (--frames) need an animated scene (this one has no [animation] table)".into(),
+        ),
         (Some(a), range) => {
             let (first, last) = range.unwrap_or((a.frame_start, a.frame_end));
             for f in [first, last] {

@@ -41,6 +41,19 @@ pub enum SceneError {
         /// What is wrong.
         message: String,
     },
+    /// A material's `map_*` statement in an MTL file names no image, or its image could not
+    /// be loaded.
+    #[error("{}: material {material:?}, {statement}: {message}", mtl.display())]
+    MaterialTexture {
+        /// The MTL file.
+        mtl: PathBuf,
+        /// The material (`newmtl` name).
+        material: String,
+        /// The statement (`map_Kd`, `map_Ks`, `map_Ke`, `map_d`, `bump`, `norm`).
+        statement: &'static str,
+        /// What is wrong, with the image file's path where one is named.
+        message: String,
+    },
     /// A texture named by an MTL file could not be loaded.
     #[error("{}: cannot load texture: {message}", path.display())]
     Texture {

@@ -81,6 +81,7 @@ impl AtomicOutputs {
         dest: &Path,
         write: impl FnOnce(&mut BufWriter<&File>) -> std::result::Result<(), OutputError>,
     ) -> std::result::Result<(), OutputError> {
+        check_output_location(dest)?;
         let io = |source: std::io::Error| OutputError::Io {
             path: dest.to_path_buf(),
             source,
@@ -524,10 +525,11 @@ mod commit_tests {
         let d = tempfile::tempdir().unwrap();
         let (a, b) = (d.path().join("a.exr"), d.path().join("b.png"));
         std::fs::write(&a, b"old").unwrap();
-        std::fs::create_dir(&b).unwrap();
         let mut out = AtomicOutputs::new();
         out.stage_bytes(&a, b"new").unwrap();
         out.stage_bytes(&b, b"new").unwrap();
+        // A directory appears where b.png goes after staging (staging itself refuses one).
+        std::fs::create_dir(&b).unwrap();
         let e = out.commit().unwrap_err().to_string();
         assert!(e.contains("b.png"), "{e}");
         assert_eq!(std::fs::read(&a).unwrap(), b"old");

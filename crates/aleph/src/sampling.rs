@@ -122,19 +122,23 @@ impl Distribution1D {
         if weights.is_empty() || weights.iter().any(|w| !w.is_finite() || *w < 0.0) {
             return None;
         }
-        let mut cdf = Vec::with_capacity(weights.len() + 1);
+        let mut sums = Vec::with_capacity(weights.len() + 1);
         let mut acc = 0.0f64;
-        cdf.push(0.0);
+        sums.push(0.0);
         for w in &weights {
             acc += *w as f64;
-            cdf.push(acc as f32);
+            sums.push(acc);
         }
         if acc <= 0.0 {
             return None;
         }
-        for c in cdf.iter_mut() {
-            *c = (*c as f64 / acc) as f32;
-        }
+        // Weights near f32::MAX sum past it: the partial sums are scaled by a power of two
+        // (exact, so the result is the same bits as unscaled wherever that fits in f32).
+        let scale = pow2_scale(acc);
+        let mut cdf: Vec<f32> = sums
+            .iter()
+            .map(|&c| ((c * scale) as f32 as f64 / (acc * scale)) as f32)
+            .collect();
         *cdf.last_mut().unwrap() = 1.0;
         Some(Distribution1D {
             pmf: weights.iter().map(|&w| (w as f64 / acc) as f32).collect(),
@@ -234,6 +238,16 @@ impl Distribution1D {
     }
 }
 
+/// 1, or the power of two that brings `x` (positive, finite) to at most 2¹⁰⁰, so sums of f32
+/// weights can be narrowed back to f32 without overflow. Multiplying by it is exact.
+fn pow2_scale(x: f64) -> f64 {
+    if x <= 2f64.powi(100) {
+        1.0
+    } else {
+        2f64.powi(100 - x.log2().ceil() as i32)
+    }
+}
+
 /// A piecewise-constant density on [0, 1)², one cell per texel of a `width × height` weight
 /// grid (row 0 at v = 0), sampled as a marginal over rows then a conditional within the row
 /// (pbrt-v4's `PiecewiseConstant2D`).
@@ -253,15 +267,21 @@ impl Distribution2D {
         let mut row_sums = Vec::with_capacity(height);
         let mut rows = Vec::with_capacity(height);
         for r in weights.chunks_exact(width) {
-            let sum: f64 = r.iter().map(|&w| w as f64).sum();
-            row_sums.push(sum as f32);
+            row_sums.push(r.iter().map(|&w| w as f64).sum::<f64>());
             // A row of zeros still needs a valid (never chosen) distribution.
             rows.push(
                 Distribution1D::new(r.to_vec())
                     .or_else(|| Distribution1D::new(vec![1.0; width]))?,
             );
         }
-        let marginal = Distribution1D::new(row_sums)?;
+        // Row sums scaled by a power of two (exact) so that rows of texels near f32::MAX do
+        // not narrow to infinity; a distribution is scale-free.
+        let top = row_sums.iter().copied().fold(0.0f64, f64::max);
+        if !top.is_finite() {
+            return None;
+        }
+        let scale = pow2_scale(top);
+        let marginal = Distribution1D::new(row_sums.iter().map(|&s| (s * scale) as f32).collect())?;
         Some(Distribution2D { rows, marginal })
     }
 

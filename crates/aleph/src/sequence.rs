@@ -154,7 +154,9 @@ impl<'a> Sequence<'a> {
         };
         if scene.animation.is_none() {
             return Err(invalid(
-                "frames need an animated scene (this one has no [animation] table)".into(),
+                "frames (--frames, --frame) need an animated scene (this one has no \
+                 [animation] table)"
+                    .into(),
             ));
         }
         if first > last {

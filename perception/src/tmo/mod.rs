@@ -95,8 +95,13 @@ pub struct Display {
     pub ambient_cd_m2: Option<f64>,
 }
 
+/// The brightest display or surround the operators take, cd/m²: 1e5, ten times SMPTE ST 2084's
+/// (PQ) 10,000 cd/m² ceiling and about the luminance of a sunlit white surface. Beyond it the
+/// operators' display models (Tumblin–Rushmeier's, Pattanaik's) leave f32 range.
+pub const MAX_DISPLAY_CD_M2: f64 = 1e5;
+
 impl Display {
-    /// Checks that given values are positive and finite.
+    /// Checks that given values are in (0, [`MAX_DISPLAY_CD_M2`]].
     ///
     /// # Errors
     /// [`PerceptionError::Parameter`] otherwise.
@@ -106,12 +111,12 @@ impl Display {
             ("display ambient (cd/m²)", self.ambient_cd_m2),
         ] {
             if let Some(v) = v
-                && !(v.is_finite() && v > 0.0)
+                && !(v.is_finite() && v > 0.0 && v <= MAX_DISPLAY_CD_M2)
             {
                 return Err(PerceptionError::Parameter {
                     name,
                     value: v,
-                    range: "a positive number",
+                    range: "(0, 1e5] cd/m²",
                 });
             }
         }

@@ -178,6 +178,28 @@ pub struct DisplaySpec {
 }
 
 impl DisplaySpec {
+    /// Checks the display luminances, naming the field and its flag.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`]: a display maximum or ambient luminance that is not a positive
+    /// finite number of cd/m².
+    pub fn validate(&self) -> Result<(), JobError> {
+        for (field, flag, v) in [
+            ("max_cd_m2", "--display-max", self.max_cd_m2),
+            ("ambient_cd_m2", "--display-ambient", self.ambient_cd_m2),
+        ] {
+            if let Some(v) = v
+                && !(v.is_finite() && v > 0.0 && v <= perception::tmo::MAX_DISPLAY_CD_M2)
+            {
+                return Err(JobError::Invalid(format!(
+                    "display.{field} ({flag}) must be a positive luminance up to 1e5 cd/m² \
+                     (ten times the brightest HDR standard's 10,000), got {v:?}"
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// Tone-map settings with `operator` for an image `width` pixels wide whose radiance is
     /// `luminance_scale` cd/m² per unit.
     ///
@@ -195,6 +217,7 @@ impl DisplaySpec {
                 .map_err(|e| JobError::Invalid(format!("display.fov_deg (--fov): {e}")))?,
             None => ViewingConditions::default(),
         };
+        self.validate()?;
         let display = Display {
             max_cd_m2: self.max_cd_m2,
             ambient_cd_m2: self.ambient_cd_m2,
@@ -366,6 +389,19 @@ impl RenderJob {
         {
             return bad(format!("budget.spp (--spp) must be at least 1, got {n:?}"));
         }
+        if let Some([w, h]) = self.scene.resolution {
+            if w == 0 || h == 0 || w > 65536 || h > 65536 {
+                return bad(format!(
+                    "scene.resolution (--resolution) must be in 1..=65536 on both axes, got \
+                     {w}×{h}"
+                ));
+            }
+            crate::scene::check_memory(w, h)
+                .map_err(|m| JobError::Invalid(format!("scene.resolution (--resolution): {m}")))?;
+        }
+        if self.scene.max_depth == Some(0) {
+            return bad("scene.max_depth (--max-depth) must be at least 1, got 0".into());
+        }
         if let Some(t) = self.budget.time_s
             && !(t.is_finite() && t > 0.0 && t <= 1e9)
         {
@@ -383,6 +419,7 @@ impl RenderJob {
                 return bad("display.exposure_ev (--exposure) and display.operator (--tonemap) exclude each other".into());
             }
         }
+        self.display.validate()?;
         if let Some(stem) = &self.output.stem {
             check_stem(stem)?;
         }

@@ -123,6 +123,8 @@ impl SceneDescription {
             let select = ObjectFilter {
                 only: mesh.objects.as_deref(),
                 exclude: &mesh.exclude_objects,
+                scene: &self.path,
+                mesh: i + 1,
             };
             let obj = base.join(&mesh.file);
             if !obj.is_file() {
@@ -401,7 +403,7 @@ impl SceneDescription {
                 "camera.resolution must be in 1..=65536 on both axes, got {w}×{h}"
             )));
         }
-        check_memory(w, h).map_err(|m| self.invalid(m))?;
+        check_memory(w, h).map_err(|m| self.invalid(format!("camera.resolution {m}")))?;
         if !(c.vfov_deg > 0.0 && c.vfov_deg < 180.0) {
             return Err(self.invalid(format!(
                 "camera.vfov_deg must be in (0, 180) degrees, got {}",

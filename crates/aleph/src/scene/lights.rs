@@ -57,11 +57,27 @@ fn environment_map(
             img.height
         );
     }
+    if img.clamped_negative > 0 {
+        eprintln!(
+            "warning: {}: {} negative texel values clamped to 0 (radiance cannot be negative)",
+            path.display(),
+            img.clamped_negative
+        );
+    }
     let rgb: Vec<Vec3> = img
         .rgb
         .chunks_exact(3)
         .map(|c| Vec3::new(c[0], c[1], c[2]))
         .collect();
+    if let Some(i) = rgb.iter().position(|&c| !(c * strength).is_finite()) {
+        return Err(format!(
+            "{}: texel ({}, {}) = {:e} times strength {strength} overflows f32",
+            path.display(),
+            i % img.width,
+            i / img.width,
+            rgb[i].max_element()
+        ));
+    }
     Environment::from_map(img.width, img.height, &rgb, strength, rotate).ok_or_else(|| {
         format!(
             "{}: the environment map is black everywhere",

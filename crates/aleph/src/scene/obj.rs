@@ -157,6 +157,9 @@ fn warn_ignored_mtl(mtl: &Path, materials: &[tobj::Material]) {
 pub(super) struct ObjectFilter<'a> {
     pub(super) only: Option<&'a [String]>,
     pub(super) exclude: &'a [String],
+    /// The scene file and the `[[mesh]]` number (from 1) the selection comes from, for errors.
+    pub(super) scene: &'a Path,
+    pub(super) mesh: usize,
 }
 
 impl ObjectFilter<'_> {
@@ -165,16 +168,41 @@ impl ObjectFilter<'_> {
             && !self.exclude.iter().any(|n| n == name)
     }
 
-    /// Every name given must exist in the file.
-    fn check(&self, models: &[tobj::Model]) -> Result<(), String> {
+    /// Every name given must exist in the file, no name may be both kept and left out, and
+    /// the selection must keep at least one object (an empty mesh is never what was meant).
+    fn check(&self, models: &[tobj::Model], obj: &Path) -> SceneResult<()> {
+        let bad = |message: String| {
+            Err(SceneError::Invalid {
+                path: self.scene.to_path_buf(),
+                message: format!("[[mesh]] #{} ({}): {message}", self.mesh, obj.display()),
+            })
+        };
         let names: Vec<&str> = models.iter().map(|m| m.name.as_str()).collect();
+        if self.only.is_some_and(|o| o.is_empty()) {
+            return bad(
+                "objects = [] selects no object (leave it out to load every object)".into(),
+            );
+        }
         let given = self.only.unwrap_or(&[]).iter().chain(self.exclude);
         for n in given {
             if !names.contains(&n.as_str()) {
-                return Err(format!(
+                return bad(format!(
                     "no object or group is named {n:?} (the file has {names:?})"
                 ));
             }
+        }
+        if let Some(n) = self
+            .only
+            .unwrap_or(&[])
+            .iter()
+            .find(|n| self.exclude.contains(n))
+        {
+            return bad(format!("{n:?} is in both objects and exclude_objects"));
+        }
+        if !names.iter().any(|n| self.keeps(n)) {
+            return bad(format!(
+                "objects and exclude_objects leave none of the file's objects {names:?}"
+            ));
         }
         Ok(())
     }
@@ -198,10 +226,7 @@ pub(super) struct Builder {
 }
 
 impl Builder {
-    pub(super) fn texture(&mut self, dir: &Path, spec: &str) -> SceneResult<Option<ColorSource>> {
-        let Some(spec) = parse_texture_spec(spec) else {
-            return Ok(None);
-        };
+    pub(super) fn texture(&mut self, dir: &Path, spec: &TextureSpec) -> SceneResult<ColorSource> {
         let path = dir.join(spec.file.replace('\\', "/"));
         let id = match self.texture_index.get(&path) {
             Some(&id) => id,
@@ -213,24 +238,21 @@ impl Builder {
                 id
             }
         };
-        Ok(Some(ColorSource::Texture {
+        Ok(ColorSource::Texture {
             id,
             base: spec.base,
             gain: spec.gain,
-        }))
+        })
     }
 
     /// The cut-out mask of an MTL `map_d` argument: the `-imfchan` channel if given, else the
     /// image's alpha channel if it has one, else its luminance (values as stored, no sRGB
     /// decoding).
-    pub(super) fn mask(&mut self, dir: &Path, spec: &str) -> SceneResult<Option<u32>> {
-        let Some(spec) = parse_texture_spec(spec) else {
-            return Ok(None);
-        };
+    pub(super) fn mask(&mut self, dir: &Path, spec: &TextureSpec) -> SceneResult<u32> {
         let path = dir.join(spec.file.replace('\\', "/"));
         let key = (path.clone(), spec.imfchan);
         if let Some(&id) = self.mask_index.get(&key) {
-            return Ok(Some(id));
+            return Ok(id);
         }
         let err = |message: String| SceneError::Texture {
             path: path.clone(),
@@ -264,19 +286,16 @@ impl Builder {
         let id = self.masks.len() as u32;
         self.masks.push(mask);
         self.mask_index.insert(key, id);
-        Ok(Some(id))
+        Ok(id)
     }
 
     /// A bump (`normal = false`: height map unless the image is a normal map) or normal map.
     pub(super) fn bump(
         &mut self,
         dir: &Path,
-        spec: &str,
+        spec: &TextureSpec,
         normal: bool,
-    ) -> SceneResult<Option<BumpMap>> {
-        let Some(spec) = parse_texture_spec(spec) else {
-            return Ok(None);
-        };
+    ) -> SceneResult<BumpMap> {
         let path = dir.join(spec.file.replace('\\', "/"));
         let id = match self.data_index.get(&path) {
             Some(&id) => id,
@@ -294,7 +313,7 @@ impl Builder {
         } else {
             BumpKind::Height { scale: spec.bm }
         };
-        Ok(Some(BumpMap { texture: id, kind }))
+        Ok(BumpMap { texture: id, kind })
     }
 
     pub(super) fn convert_material(
@@ -319,18 +338,42 @@ impl Builder {
                 ),
             });
         }
+        // Every map_* statement's errors name the MTL file, the material and the statement.
+        let at = |statement: &'static str| {
+            move |e: SceneError| SceneError::MaterialTexture {
+                mtl: mtl.to_path_buf(),
+                material: m.name.clone(),
+                statement,
+                message: e.to_string(),
+            }
+        };
+        let spec = |statement: &'static str, arg: &str| {
+            parse_texture_spec(arg).ok_or_else(|| SceneError::MaterialTexture {
+                mtl: mtl.to_path_buf(),
+                material: m.name.clone(),
+                statement,
+                message: format!("names no image file (\"{statement} {}\")", arg.trim()),
+            })
+        };
         let kd = match &m.diffuse_texture {
-            Some(t) => self.texture(dir, t)?.unwrap_or(ColorSource::Constant(kd_c)),
+            Some(t) => self
+                .texture(dir, &spec("map_Kd", t)?)
+                .map_err(at("map_Kd"))?,
             None => ColorSource::Constant(kd_c),
         };
         let ks = match &m.specular_texture {
-            Some(t) => self.texture(dir, t)?.unwrap_or(ColorSource::Constant(ks_c)),
+            Some(t) => self
+                .texture(dir, &spec("map_Ks", t)?)
+                .map_err(at("map_Ks"))?,
             None => ColorSource::Constant(ks_c),
         };
         // tobj has no field for map_Ke; it lands in unknown_param.
         let emission = match m.unknown_param.get("map_Ke") {
-            Some(t) => match self.texture(dir, t)? {
-                Some(ColorSource::Texture { id, base, gain }) => {
+            Some(t) => match self
+                .texture(dir, &spec("map_Ke", t)?)
+                .map_err(at("map_Ke"))?
+            {
+                ColorSource::Texture { id, base, gain } => {
                     // Ke multiplies the texture; fold a grey Ke into the gain.
                     let k = if ke_c.max_element() > 0.0 {
                         ke_c.max_element()
@@ -378,12 +421,18 @@ impl Builder {
             ks
         };
         let cutout = match &m.dissolve_texture {
-            Some(t) => self.mask(dir, t)?,
+            Some(t) => Some(self.mask(dir, &spec("map_d", t)?).map_err(at("map_d"))?),
             None => None,
         };
         let bump = match (m.unknown_param.get("norm"), &m.normal_texture) {
-            (Some(t), _) => self.bump(dir, t, true)?,
-            (None, Some(t)) => self.bump(dir, t, false)?,
+            (Some(t), _) => Some(
+                self.bump(dir, &spec("norm", t)?, true)
+                    .map_err(at("norm"))?,
+            ),
+            (None, Some(t)) => Some(
+                self.bump(dir, &spec("bump", t)?, false)
+                    .map_err(at("bump"))?,
+            ),
             (None, None) => None,
         };
         Ok(Material {
@@ -487,7 +536,7 @@ impl Builder {
             local_to_global.push(idx);
         }
         let normal_xf = Mat3::from_mat4(xf).inverse().transpose();
-        select.check(&models).map_err(obj_err)?;
+        select.check(&models, path)?;
         for model in models.iter().filter(|m| select.keeps(&m.name)) {
             let material = match model.mesh.material_id {
                 Some(id) if id < local_to_global.len() => local_to_global[id],

@@ -408,11 +408,14 @@ fn available_memory() -> Option<u64> {
 }
 
 /// Refuses a resolution whose render would not fit in the available memory, with both figures.
-pub(super) fn check_memory(w: u32, h: u32) -> Result<(), String> {
+///
+/// # Errors
+/// The message naming the resolution, the bytes its render needs and the bytes available.
+pub fn check_memory(w: u32, h: u32) -> Result<(), String> {
     let need = w as u64 * h as u64 * RENDER_BYTES_PER_PIXEL;
     match available_memory() {
         Some(avail) if need > avail => Err(format!(
-            "camera.resolution {w}×{h} needs about {:.1} GiB to render ({RENDER_BYTES_PER_PIXEL} \
+            "{w}×{h} needs about {:.1} GiB to render ({RENDER_BYTES_PER_PIXEL} \
              bytes per pixel), more than the {:.1} GiB of memory available",
             need as f64 / (1u64 << 30) as f64,
             avail as f64 / (1u64 << 30) as f64
