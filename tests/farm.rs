@@ -105,6 +105,19 @@ fn merge_refuses_parts_that_do_not_make_one_render() {
     let e = err(&[&a, &other, &c]);
     assert!(e.starts_with(&other.display().to_string()) && e.contains("recipes differ"));
     assert!(err(&[&a, &overlap]).contains("part of 2"));
+    // A part whose data window was shifted by hand (same size, same samples) is refused.
+    let shifted = dir.path().join("shifted.exr");
+    {
+        use exr::prelude::*;
+        let mut img = read_all_data_from_file(&b).unwrap();
+        img.layer_data[0].attributes.layer_position = Vec2(3, 0);
+        img.write().to_file(&shifted).unwrap();
+    }
+    let e = err(&[&a, &shifted, &c]);
+    assert!(
+        e.starts_with(&shifted.display().to_string()) && e.contains("data window starts at (3, 0)"),
+        "{e}"
+    );
     let junk = dir.path().join("junk.exr");
     std::fs::write(&junk, b"not an exr").unwrap();
     assert!(err(&[&junk]).starts_with(&junk.display().to_string()));

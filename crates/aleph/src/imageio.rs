@@ -240,6 +240,8 @@ pub struct RawExr {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
+    /// The data window's origin, pixels (aleph writes (0, 0)).
+    pub origin: [i32; 2],
     /// u32 channels (bit patterns such as a partial film's sums), row-major.
     pub u32s: std::collections::HashMap<String, Vec<u32>>,
     /// f32 channels, row-major.
@@ -258,6 +260,10 @@ pub fn read_exr_raw(path: &Path) -> Result<RawExr, ImageError> {
     let mut raw = RawExr {
         width: layer.size.width() as u32,
         height: layer.size.height() as u32,
+        origin: [
+            layer.attributes.layer_position.x(),
+            layer.attributes.layer_position.y(),
+        ],
         ..Default::default()
     };
     for (k, v) in &layer.attributes.other {

@@ -407,6 +407,13 @@ fn part_info(w: u32, h: u32, attrs: &HashMap<String, String>) -> Result<PartInfo
 
 /// Builds a [`PartialFilm`] from an EXR's channels and text attributes.
 fn decode(raw: &crate::imageio::RawExr) -> Result<PartialFilm, String> {
+    if raw.origin != [0, 0] {
+        return Err(format!(
+            "its data window starts at ({}, {}); a partial film's starts at (0, 0) (edited by \
+             hand?)",
+            raw.origin[0], raw.origin[1]
+        ));
+    }
     let info = part_info(raw.width, raw.height, &raw.text)?;
     let channel = |name: &str| {
         raw.u32s
