@@ -819,3 +819,62 @@ fn object_selections_that_load_nothing_are_refused() {
         assert_mentions(&e, &["scene.toml", "[[mesh]] #1", "t.obj", expect]);
     }
 }
+
+/// A PNG whose header says 0×0 (well-formed otherwise, CRCs correct) is refused naming the
+/// file, as a texture, an environment map and an image to tone map (issue 35, class 9).
+#[test]
+fn a_png_of_zero_size_is_refused_everywhere() {
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = 0xFFFF_FFFFu32;
+        for &b in bytes {
+            c ^= b as u32;
+            for _ in 0..8 {
+                c = if c & 1 == 1 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+    fn chunk(kind: &[u8], data: &[u8]) -> Vec<u8> {
+        let mut v = (data.len() as u32).to_be_bytes().to_vec();
+        let body = [kind, data].concat();
+        v.extend(&body);
+        v.extend(crc32(&body).to_be_bytes());
+        v
+    }
+    let ihdr = [0, 0, 0, 0, 0, 0, 0, 0, 8, 2, 0, 0, 0];
+    // zlib of nothing: header 78 9c, an empty final stored block, adler32 of nothing = 1.
+    let idat = [0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01];
+    let png = [
+        &b"\x89PNG\r\n\x1a\n"[..],
+        &chunk(b"IHDR", &ihdr),
+        &chunk(b"IDAT", &idat),
+        &chunk(b"IEND", &[]),
+    ]
+    .concat();
+    let d = tempdir();
+    std::fs::write(d.path().join("zero.png"), &png).unwrap();
+    let obj = "mtllib m.mtl\nv -1 0 -1\nv 1 0 -1\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl white\nf 1/1 2/2 3/3\n";
+    let mtl = "newmtl white\nKd 0.5 0.5 0.5\nmap_Kd zero.png\n";
+    let toml = format!("{CAMERA}{LIGHT}[[mesh]]\nfile = \"t.obj\"\n");
+    let s = scene_with(d.path(), &toml, &[("t.obj", obj), ("m.mtl", mtl)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["zero.png", "m.mtl", "map_Kd"]);
+    let env = format!(
+        "{CAMERA}[[mesh]]\nfile = \"t.obj\"\n[[light]]\ntype = \"environment\"\nfile = \"zero.png\"\n"
+    );
+    let s = scene_with(d.path(), &env, &[("m.mtl", MTL)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["zero.png", "[[light]] #1"]);
+    let out = d.path().join("o.png");
+    let e = aleph_fails(&[
+        "tonemap".as_ref(),
+        d.path().join("zero.png").as_os_str(),
+        out.as_os_str(),
+    ]);
+    assert_mentions(&e, &["zero.png"]);
+    assert!(!out.exists());
+}
