@@ -6,6 +6,7 @@ mod adaptive;
 mod animation;
 
 mod bad_input;
+mod denoise;
 mod determinism;
 mod diff;
 mod farm;

@@ -280,6 +280,12 @@ pub struct RenderArgs {
     /// OUT.ratio.png (error / threshold, log scale from 1/16 to 16).
     #[arg(long)]
     pub(super) aov: bool,
+    /// Denoise the image with Intel Open Image Denoise, given the albedo and normal of the
+    /// first non-specular surface (16 spp): OUT.png and the EXR's RGB are denoised, the raw
+    /// render is kept as Noisy.R/G/B. Needs a build with `--features denoise`
+    /// (docs/denoise.md).
+    #[arg(long)]
+    pub(super) denoise: bool,
     /// Frames of an animated scene to render, FIRST-LAST (inclusive; default: the scene's whole
     /// [animation] range). Outputs are numbered OUT.0001.exr, OUT.0001.png, …, plus
     /// OUT.preview.png (an animated PNG) and OUT.filmstrip.png.
@@ -406,6 +412,7 @@ impl RenderArgs {
             None => PathBuf::from(scene_name(&scene)),
         });
         job.output.aov = self.aov;
+        job.output.denoise = self.denoise;
         job.validate()?;
         Ok(job)
     }

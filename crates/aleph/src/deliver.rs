@@ -169,6 +169,33 @@ pub fn exr_layers(
     (extra, attributes)
 }
 
+/// A denoised render's layers: the raw render and the denoiser's auxiliary images.
+fn denoise_layers(
+    d: &crate::denoise::Denoised,
+    extra: &mut Vec<(String, ChannelData)>,
+    attributes: &mut Vec<(String, String)>,
+) {
+    let planes = [
+        ("Noisy", ["R", "G", "B"], &d.noisy),
+        ("Denoising Albedo", ["R", "G", "B"], &d.aux.albedo),
+        ("Denoising Normal", ["X", "Y", "Z"], &d.aux.normal),
+    ];
+    for (layer, names, data) in planes {
+        for (c, name) in names.iter().enumerate() {
+            let plane = data.iter().skip(c).step_by(3).copied().collect();
+            extra.push((format!("{layer}.{name}"), ChannelData::F32(plane)));
+        }
+    }
+    attributes.push((
+        "denoiser".to_string(),
+        format!(
+            "Intel Open Image Denoise 2.5, RT filter (hdr, cleanAux); R,G,B denoised, Noisy the \
+             render; albedo and normal of the first non-specular surface at {} spp",
+            crate::denoise::AUX_SPP
+        ),
+    ));
+}
+
 /// The G-buffer's layers as Blender names them: `Depth.Z`, `Normal.X/Y/Z`, `IndexOB`.
 fn gbuffer_layers(
     g: &crate::gbuffer::GBuffer,
@@ -214,7 +241,10 @@ pub fn display_image(
 }
 
 /// Writes the outputs of `result` (a render of `scene`'s current frame with `settings`) to
-/// `stem` + extensions (see the module docs); `aov` adds the false-colour PNGs.
+/// `stem` + extensions (see the module docs); `aov` adds the false-colour PNGs. With
+/// `denoised`, the EXR's RGB and the PNG are its denoised image, and the EXR keeps the raw
+/// render as `Noisy.R/G/B` with the denoiser's `Denoising Albedo.R/G/B` and
+/// `Denoising Normal.X/Y/Z` (Blender's names).
 ///
 /// # Errors
 /// [`DeliverError`]; nothing is replaced then.
@@ -225,14 +255,21 @@ pub fn write_render(
     result: &AdaptiveResult,
     look: Look,
     aov: bool,
+    denoised: Option<&crate::denoise::Denoised>,
 ) -> Result<Written, DeliverError> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let film = &result.film;
-    let rgb = film.mean_rgb();
+    let rgb = match denoised {
+        Some(d) => d.rgb.clone(),
+        None => film.mean_rgb(),
+    };
     let exr_path = with_ext(stem, "exr");
     let png_path = with_ext(stem, "png");
     let mut out = AtomicOutputs::new();
-    let (extra, attributes) = exr_layers(scene, settings, result);
+    let (mut extra, mut attributes) = exr_layers(scene, settings, result);
+    if let Some(d) = denoised {
+        denoise_layers(d, &mut extra, &mut attributes);
+    }
     out.stage(&exr_path, |wr| {
         write_exr(wr, &exr_path, w, h, &rgb, &extra, &attributes)
     })?;

@@ -76,22 +76,40 @@ fn capped(le: Vec3) -> Vec3 {
 /// reports its radiance scaled so its luminance is at most [`ALBEDO_EMITTER_CAP`]; a miss
 /// reports the environment and suns seen there, capped the same way. Uses `rng` only for the
 /// choice at dielectrics (reflect or refract by Fresnel).
-pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> Vec3 {
+pub fn albedo(scene: &Scene, ray: Ray, rng: &mut impl Sampler) -> Vec3 {
+    first_surface(scene, ray, rng).0
+}
+
+/// [`albedo`] and the interpolated normal (before bump mapping) of the surface it reports
+/// (world space, facing the ray;
+/// zero for a miss or a path lost among specular bounces): the albedo and normal auxiliary
+/// images a denoiser takes (Open Image Denoise's, as Cycles' "Denoising Albedo" and
+/// "Denoising Normal" passes).
+pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> (Vec3, Vec3) {
     use crate::bsdf::Bsdf;
     let mut weight = Vec3::ONE;
     for _ in 0..8 {
         let Some(hit) = scene.geometry.intersect(&ray) else {
-            return weight * capped(scene.lights.infinite_radiance(ray.d, |_| 1.0));
+            let sky = capped(scene.lights.infinite_radiance(ray.d, |_| 1.0));
+            return (weight * sky, Vec3::ZERO);
+        };
+        let facing = if ray.d.dot(hit.ns) > 0.0 {
+            -hit.ns
+        } else {
+            hit.ns
         };
         let tris = &scene.geometry.tris;
         let material = &scene.materials[tris.material(hit.tri as usize) as usize];
         if tris.light(hit.tri as usize) != u32::MAX && -ray.d.dot(hit.ng) > 0.0 {
-            return weight * capped(material.emitted(hit.uv, &scene.textures));
+            return (
+                weight * capped(material.emitted(hit.uv, &scene.textures)),
+                facing,
+            );
         }
         let bsdf = material.bsdf(hit.uv, &scene.textures);
         match bsdf {
-            Bsdf::Lambert(l) => return weight * l.reflectance,
-            Bsdf::Glossy(g) => return weight * (g.kd + g.ks),
+            Bsdf::Lambert(l) => return (weight * l.reflectance, facing),
+            Bsdf::Glossy(g) => return (weight * (g.kd + g.ks), facing),
             Bsdf::Mirror(_) | Bsdf::Dielectric(_) => {
                 let ns = if !bsdf.is_transmissive() && ray.d.dot(hit.ng) > 0.0 {
                     -hit.ns
@@ -101,7 +119,7 @@ pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> Vec3 {
                 let frame = Frame::from_normal(ns);
                 let wo = frame.to_local(-ray.d);
                 let Some(s) = bsdf.sample(wo, rng.uniform(), rng.uniform2()) else {
-                    return Vec3::ZERO;
+                    return (Vec3::ZERO, Vec3::ZERO);
                 };
                 weight *= s.f * s.wi.z.abs() / s.pdf;
                 let wi = frame.from_local(s.wi);
@@ -114,7 +132,7 @@ pub fn albedo(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> Vec3 {
             }
         }
     }
-    Vec3::ZERO
+    (Vec3::ZERO, Vec3::ZERO)
 }
 
 /// The shading normal at `hit` with the material's bump or normal map applied: the map's

@@ -26,6 +26,7 @@ pub mod camera;
 #[cfg(test)]
 mod chi2;
 pub mod deliver;
+pub mod denoise;
 pub mod display;
 pub mod error;
 pub mod film;

@@ -210,7 +210,22 @@ fn deliver_frame(
 ) -> Result<Vec<u8>, JobError> {
     let (display, words) = match stem {
         Some(stem) => {
-            let w = write_render(scene, stem, settings, result, look, job.output.aov)?;
+            let denoised = match job.output.denoise {
+                true => Some(crate::denoise::denoise_render(
+                    scene,
+                    result.film.mean_rgb(),
+                )?),
+                false => None,
+            };
+            let w = write_render(
+                scene,
+                stem,
+                settings,
+                result,
+                look,
+                job.output.aov,
+                denoised.as_ref(),
+            )?;
             (w.display, w.look)
         }
         None => (Vec::new(), look.describe()),

@@ -172,7 +172,7 @@ pub fn merge(parts: &[PathBuf], stem: &Path) -> Result<MergeReport, JobError> {
         reuse: None,
         film,
     };
-    let written = write_render(&scene, &stem, &settings, &result, look, false)?;
+    let written = write_render(&scene, &stem, &settings, &result, look, false, None)?;
     Ok(MergeReport {
         scene: scene.path.clone(),
         parts: parts.len(),

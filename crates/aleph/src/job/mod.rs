@@ -272,6 +272,9 @@ pub struct OutputSpec {
     /// A sequence also writes STEM.preview.png and STEM.filmstrip.png (a farm task's frame
     /// does not: the finishing job writes them for the whole sequence).
     pub sequence_outputs: bool,
+    /// Denoise each frame with Open Image Denoise ([`crate::denoise`]): the EXR's RGB and the
+    /// PNG are the denoised image, the raw one is kept as `Noisy.R/G/B`.
+    pub denoise: bool,
 }
 
 impl Default for OutputSpec {
@@ -280,6 +283,7 @@ impl Default for OutputSpec {
             stem: None,
             aov: false,
             sequence_outputs: true,
+            denoise: false,
         }
     }
 }
@@ -315,6 +319,9 @@ pub enum JobError {
     /// A partial film could not be read, written or merged.
     #[error(transparent)]
     Partial(#[from] crate::partial::PartialError),
+    /// The image could not be denoised.
+    #[error(transparent)]
+    Denoise(#[from] crate::denoise::DenoiseError),
 }
 
 impl RenderJob {
@@ -432,6 +439,18 @@ impl RenderJob {
         }
         if let Some(split) = self.split {
             self.validate_split(split)?;
+        }
+        if self.output.denoise {
+            if !crate::denoise::AVAILABLE {
+                return bad(format!("--denoise: {}", crate::denoise::HOW_TO_BUILD));
+            }
+            if self.split.is_some() {
+                return bad(
+                    "--denoise with --part/--tile: a part holds some of the samples; denoise \
+                     the whole image (render it on one machine)"
+                        .into(),
+                );
+            }
         }
         self.validate_reuse()
     }

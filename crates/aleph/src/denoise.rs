@@ -1,0 +1,170 @@
+//! Denoising a render with Intel Open Image Denoise (OIDN 2.5, its "RT" filter), given clean
+//! auxiliary images from the renderer: the albedo and the normal of the first non-specular
+//! surface each pixel sees, averaged over jittered samples (Cycles' "Denoising Albedo" and
+//! "Denoising Normal" passes; OIDN's documentation, "RT filter", for their meaning).
+//!
+//! The library is optional: built with the `denoise` feature (scripts/oidn.sh installs it and
+//! points the build at it), [`AVAILABLE`] is true; without it [`denoise`] returns
+//! [`DenoiseError::NotBuilt`], whose message says how to build it, so callers can refuse
+//! `--denoise` before rendering.
+
+use crate::rng::Rng;
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Whether this build can denoise (the `denoise` feature).
+pub const AVAILABLE: bool = cfg!(feature = "denoise");
+
+/// How to build a binary that denoises, for messages.
+pub const HOW_TO_BUILD: &str = "this aleph was built without denoising; build it with \
+     `eval \"$(bash scripts/oidn.sh)\" && cargo build --release --features denoise` \
+     (docs/denoise.md)";
+
+/// Samples per pixel of the auxiliary images (their edges are antialiased like the render's).
+pub const AUX_SPP: u32 = 16;
+
+/// Seed offset of the auxiliary images, independent of the render's samples.
+const AUX_SEED_XOR: u64 = 0xA0C5_11AE;
+
+/// Why an image could not be denoised.
+#[derive(Debug, thiserror::Error)]
+pub enum DenoiseError {
+    /// The binary was built without the `denoise` feature.
+    #[error("{HOW_TO_BUILD}")]
+    NotBuilt,
+    /// Open Image Denoise refused or failed (no CPU device, out of memory, …).
+    #[error("Open Image Denoise: {0}")]
+    Oidn(String),
+    /// The buffers do not describe a `width × height` RGB image.
+    #[error("denoise: {0}")]
+    Size(String),
+}
+
+/// The auxiliary images of a render, interleaved RGB / XYZ, row-major, `3 · width · height`
+/// values each.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Aux {
+    /// Albedo of the first non-specular surface, in [0, 1] per channel (an emitter or the sky
+    /// seen directly reports its radiance capped at luminance 1).
+    pub albedo: Vec<f32>,
+    /// Its normal in world space, facing the camera, averaged over the pixel's samples (length
+    /// up to 1; zero where every sample missed the scene).
+    pub normal: Vec<f32>,
+}
+
+/// Renders the auxiliary images of `scene` with `spp` jittered samples per pixel under `seed`
+/// (deterministic for any thread count).
+pub fn render_aux(scene: &Scene, spp: u32, seed: u64) -> Aux {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let seed = seed ^ AUX_SEED_XOR;
+    let mut albedo = vec![0f32; 3 * w * h];
+    let mut normal = vec![0f32; 3 * w * h];
+    albedo
+        .par_chunks_mut(3 * w)
+        .zip(normal.par_chunks_mut(3 * w))
+        .enumerate()
+        .for_each(|(y, (arow, nrow))| {
+            for x in 0..w {
+                let (a, n) = pixel_aux(scene, spp, seed, x, y);
+                arow[3 * x..3 * x + 3].copy_from_slice(&a.to_array());
+                nrow[3 * x..3 * x + 3].copy_from_slice(&n.to_array());
+            }
+        });
+    Aux { albedo, normal }
+}
+
+fn pixel_aux(scene: &Scene, spp: u32, seed: u64, x: usize, y: usize) -> (Vec3, Vec3) {
+    let w = scene.camera.width as usize;
+    let index = (y * w + x) as u64;
+    let (mut a, mut n) = (Vec3::ZERO, Vec3::ZERO);
+    for k in 0..spp {
+        let time = scene.sample_time(seed, index, k as u64);
+        let mut rng = Rng::for_sample(seed, index, k as u64);
+        let ray = scene.camera_ray(seed, (x as u32, y as u32), k as u64, rng.uniform2(), time);
+        let (albedo, normal) = crate::integrator::first_surface(scene, ray, &mut rng);
+        // Albedo in [0, 1] as OIDN requires: an emitter's capped radiance scaled to luminance 1.
+        let y = crate::math::luminance(albedo);
+        let albedo = if y > 1.0 { albedo / y } else { albedo };
+        if albedo.is_finite() && normal.is_finite() {
+            a += albedo.clamp(Vec3::ZERO, Vec3::ONE);
+            n += normal;
+        }
+    }
+    let k = spp.max(1) as f32;
+    (a / k, n / k)
+}
+
+/// Denoises the linear RGB radiance `rgb` (interleaved, `3 · width · height`, any positive
+/// scale: the filter is told it is HDR) with the auxiliary images, which it takes as clean
+/// (`cleanAux`). Returns the denoised RGB, same layout and units.
+///
+/// # Errors
+/// [`DenoiseError::NotBuilt`] without the `denoise` feature; [`DenoiseError::Size`] if the
+/// buffers' lengths do not match; [`DenoiseError::Oidn`] if the library fails.
+pub fn denoise(
+    rgb: &[f32],
+    width: usize,
+    height: usize,
+    aux: &Aux,
+) -> Result<Vec<f32>, DenoiseError> {
+    let n = 3 * width * height;
+    if rgb.len() != n || aux.albedo.len() != n || aux.normal.len() != n || n == 0 {
+        return Err(DenoiseError::Size(format!(
+            "{width}×{height} needs {n} values per image; got colour {}, albedo {}, normal {}",
+            rgb.len(),
+            aux.albedo.len(),
+            aux.normal.len()
+        )));
+    }
+    run_oidn(rgb, width, height, aux)
+}
+
+#[cfg(feature = "denoise")]
+fn run_oidn(rgb: &[f32], width: usize, height: usize, aux: &Aux) -> Result<Vec<f32>, DenoiseError> {
+    let err = |e: oidn::Error| DenoiseError::Oidn(e.to_string());
+    let device = oidn::Device::cpu().map_err(err)?;
+    let mut out = vec![0f32; rgb.len()];
+    oidn::RayTracing::try_new(&device)
+        .map_err(err)?
+        .hdr(true)
+        .clean_aux(true)
+        .albedo_normal(&aux.albedo, &aux.normal)
+        .image_dimensions(width, height)
+        .filter(rgb, &mut out)
+        .map_err(err)?;
+    device.get_error().map_err(err)?;
+    Ok(out)
+}
+
+#[cfg(not(feature = "denoise"))]
+fn run_oidn(_: &[f32], _: usize, _: usize, _: &Aux) -> Result<Vec<f32>, DenoiseError> {
+    Err(DenoiseError::NotBuilt)
+}
+
+/// A denoised render: the denoised and the raw radiance (interleaved RGB, W·sr⁻¹·m⁻²) and the
+/// auxiliary images the denoiser was given.
+#[derive(Clone, Debug)]
+pub struct Denoised {
+    /// The denoised radiance.
+    pub rgb: Vec<f32>,
+    /// The render before denoising.
+    pub noisy: Vec<f32>,
+    /// Albedo and normal ([`render_aux`] at [`AUX_SPP`]).
+    pub aux: Aux,
+}
+
+/// Denoises `noisy`, the radiance of a render of `scene` (its current frame), with auxiliary
+/// images rendered at [`AUX_SPP`] samples per pixel from the scene's seed.
+///
+/// # Errors
+/// As [`denoise`].
+pub fn denoise_render(scene: &Scene, noisy: Vec<f32>) -> Result<Denoised, DenoiseError> {
+    if !AVAILABLE {
+        return Err(DenoiseError::NotBuilt);
+    }
+    let aux = render_aux(scene, AUX_SPP, scene.settings.seed);
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let rgb = denoise(&noisy, w, h, &aux)?;
+    Ok(Denoised { rgb, noisy, aux })
+}
