@@ -92,6 +92,36 @@ pub fn parse_texture_spec(s: &str) -> Option<TextureSpec> {
     })
 }
 
+/// The BSDF an MTL material asks for: dielectric for `illum` 4, 6, 7, 9 or any transparency
+/// (`d` < 1, `Tr` > 0), mirror for `illum` 5, 8 or a specular exponent of 10,000 or more, glossy
+/// (GGX α from `Ns`) with any specular colour or texture, else diffuse.
+fn material_kind(m: &tobj::Material, ks_c: Vec3) -> MaterialKind {
+    let illum = m.illumination_model.unwrap_or(2);
+    let tr: f32 = m
+        .unknown_param
+        .get("Tr")
+        .and_then(|s| s.trim().parse().ok())
+        .unwrap_or(0.0);
+    let dissolve = m.dissolve.unwrap_or(1.0);
+    let ns = m.shininess.unwrap_or(0.0);
+    let has_ks = ks_c.max_element() > 0.0 || m.specular_texture.is_some();
+    if matches!(illum, 4 | 6 | 7 | 9) || dissolve < 1.0 || tr > 0.0 {
+        let ior = m
+            .optical_density
+            .filter(|n| *n > 0.0 && n.is_finite())
+            .unwrap_or(1.5);
+        MaterialKind::Dielectric { ior }
+    } else if matches!(illum, 5 | 8) || (has_ks && ns >= 10_000.0) {
+        MaterialKind::Mirror
+    } else if has_ks {
+        MaterialKind::Glossy {
+            alpha: Material::alpha_from_ns(ns),
+        }
+    } else {
+        MaterialKind::Diffuse
+    }
+}
+
 /// The distinct names given by `usemtl` lines of an OBJ file, in order of appearance.
 fn usemtl_names(obj: &[u8]) -> Vec<String> {
     let mut names: Vec<String> = Vec::new();
@@ -391,30 +421,7 @@ impl Builder {
             None if ke_c.max_element() > 0.0 => Some(ColorSource::Constant(ke_c)),
             None => None,
         };
-        let illum = m.illumination_model.unwrap_or(2);
-        let tr: f32 = m
-            .unknown_param
-            .get("Tr")
-            .and_then(|s| s.trim().parse().ok())
-            .unwrap_or(0.0);
-        let dissolve = m.dissolve.unwrap_or(1.0);
-        let ns = m.shininess.unwrap_or(0.0);
-        let has_ks = ks_c.max_element() > 0.0 || m.specular_texture.is_some();
-        let kind = if matches!(illum, 4 | 6 | 7 | 9) || dissolve < 1.0 || tr > 0.0 {
-            let ior = m
-                .optical_density
-                .filter(|n| *n > 0.0 && n.is_finite())
-                .unwrap_or(1.5);
-            MaterialKind::Dielectric { ior }
-        } else if matches!(illum, 5 | 8) || (has_ks && ns >= 10_000.0) {
-            MaterialKind::Mirror
-        } else if has_ks {
-            MaterialKind::Glossy {
-                alpha: Material::alpha_from_ns(ns),
-            }
-        } else {
-            MaterialKind::Diffuse
-        };
+        let kind = material_kind(m, ks_c);
         let ks = if kind == MaterialKind::Mirror && ks.is_black() {
             ColorSource::Constant(Vec3::ONE)
         } else {
