@@ -67,6 +67,9 @@ mod with_oidn {
         args.extend(extra);
         let o = aleph(&args, dir);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        // The summary says whether the image was denoised.
+        let said = String::from_utf8_lossy(&o.stdout).contains("denoised by Open Image Denoise");
+        assert_eq!(said, extra.contains(&"--denoise"));
         read_exr_raw(&dir.join(format!("{stem}.exr"))).unwrap()
     }
 

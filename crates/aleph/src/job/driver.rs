@@ -210,6 +210,7 @@ fn deliver_frame(
 ) -> Result<Vec<u8>, JobError> {
     let (display, words) = match stem {
         Some(stem) => {
+            let t = std::time::Instant::now();
             let denoised = match job.output.denoise {
                 true => Some(crate::denoise::denoise_render(
                     scene,
@@ -217,6 +218,7 @@ fn deliver_frame(
                 )?),
                 false => None,
             };
+            let denoise_s = t.elapsed().as_secs_f64();
             let w = write_render(
                 scene,
                 stem,
@@ -226,7 +228,14 @@ fn deliver_frame(
                 job.output.aov,
                 denoised.as_ref(),
             )?;
-            (w.display, w.look)
+            let words = match denoised {
+                Some(_) => format!(
+                    "{}; denoised by Open Image Denoise in {denoise_s:.2} s",
+                    w.look
+                ),
+                None => w.look,
+            };
+            (w.display, words)
         }
         None => (Vec::new(), look.describe()),
     };
