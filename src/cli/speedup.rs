@@ -60,10 +60,7 @@ pub fn run(args: SpeedupArgs) -> anyhow::Result<ExitCode> {
     let scene_path = args.scene.clone().unwrap_or_else(default_scene);
     let mut desc = SceneDescription::read(&scene_path)?;
     let (w, h) = args.resolution.unwrap_or((256, 256));
-    if w == 0 || h == 0 || w > 65536 || h > 65536 {
-        bail!("--resolution must be in 1..=65536 on both axes, got {w}×{h}");
-    }
-    aleph::scene::check_memory(w, h).map_err(|m| anyhow::anyhow!("--resolution: {m}"))?;
+    aleph::scene::check_resolution(w, h).map_err(|m| anyhow::anyhow!("--resolution: {m}"))?;
     desc.camera.resolution = [w, h];
     desc.render.seed = Some(args.seed);
     if args.budgets.is_empty() || args.budgets.iter().any(|b| !(b.is_finite() && *b >= 1.0)) {

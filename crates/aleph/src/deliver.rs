@@ -259,9 +259,13 @@ pub fn write_render(
 ) -> Result<Written, DeliverError> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let film = &result.film;
-    let rgb = match denoised {
-        Some(d) => d.rgb.clone(),
-        None => film.mean_rgb(),
+    let raw;
+    let rgb: &[f32] = match denoised {
+        Some(d) => &d.rgb,
+        None => {
+            raw = film.mean_rgb();
+            &raw
+        }
     };
     let exr_path = with_ext(stem, "exr");
     let png_path = with_ext(stem, "png");
@@ -271,9 +275,9 @@ pub fn write_render(
         denoise_layers(d, &mut extra, &mut attributes);
     }
     out.stage(&exr_path, |wr| {
-        write_exr(wr, &exr_path, w, h, &rgb, &extra, &attributes)
+        write_exr(wr, &exr_path, w, h, rgb, &extra, &attributes)
     })?;
-    let (display, look) = display_image(&rgb, w as usize, h as usize, look)?;
+    let (display, look) = display_image(rgb, w as usize, h as usize, look)?;
     out.stage(&png_path, |wr| write_png(wr, &png_path, w, h, &display))?;
     if aov {
         let spp: Vec<f32> = film.spp().iter().map(|&n| n as f32).collect();

@@ -211,12 +211,13 @@ fn deliver_frame(
     let (display, words) = match stem {
         Some(stem) => {
             let t = std::time::Instant::now();
-            let denoised = match job.output.denoise {
-                true => Some(crate::denoise::denoise_render(
+            let denoised = if job.output.denoise {
+                Some(crate::denoise::denoise_render(
                     scene,
                     result.film.mean_rgb(),
-                )?),
-                false => None,
+                )?)
+            } else {
+                None
             };
             let denoise_s = t.elapsed().as_secs_f64();
             let w = write_render(

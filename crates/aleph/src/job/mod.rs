@@ -222,9 +222,6 @@ impl DisplaySpec {
             max_cd_m2: self.max_cd_m2,
             ambient_cd_m2: self.ambient_cd_m2,
         };
-        display
-            .validate()
-            .map_err(|e| JobError::Invalid(format!("display: {e}")))?;
         Ok(ToneMapSettings {
             operator,
             adaptation: self.adaptation,
@@ -397,13 +394,7 @@ impl RenderJob {
             return bad(format!("budget.spp (--spp) must be at least 1, got {n:?}"));
         }
         if let Some([w, h]) = self.scene.resolution {
-            if w == 0 || h == 0 || w > 65536 || h > 65536 {
-                return bad(format!(
-                    "scene.resolution (--resolution) must be in 1..=65536 on both axes, got \
-                     {w}×{h}"
-                ));
-            }
-            crate::scene::check_memory(w, h)
+            crate::scene::check_resolution(w, h)
                 .map_err(|m| JobError::Invalid(format!("scene.resolution (--resolution): {m}")))?;
         }
         if self.scene.max_depth == Some(0) {

@@ -398,12 +398,7 @@ impl SceneDescription {
     fn camera(&self) -> SceneResult<Camera> {
         let c = &self.camera;
         let [w, h] = c.resolution;
-        if w == 0 || h == 0 || w > 65536 || h > 65536 {
-            return Err(self.invalid(format!(
-                "camera.resolution must be in 1..=65536 on both axes, got {w}×{h}"
-            )));
-        }
-        check_memory(w, h).map_err(|m| self.invalid(format!("camera.resolution {m}")))?;
+        check_resolution(w, h).map_err(|m| self.invalid(format!("camera.resolution {m}")))?;
         if !(c.vfov_deg > 0.0 && c.vfov_deg < 180.0) {
             return Err(self.invalid(format!(
                 "camera.vfov_deg must be in (0, 180) degrees, got {}",

@@ -407,6 +407,19 @@ fn available_memory() -> Option<u64> {
     Some(kib * 1024)
 }
 
+/// Refuses an image size outside 1..=65536 on either axis or whose render would not fit in
+/// the available memory ([`check_memory`]); the message starts with the size, for the caller
+/// to prefix with where it came from (`camera.resolution`, `--resolution`).
+///
+/// # Errors
+/// The message.
+pub fn check_resolution(w: u32, h: u32) -> Result<(), String> {
+    if w == 0 || h == 0 || w > 65536 || h > 65536 {
+        return Err(format!("{w}×{h} is outside 1..=65536 on an axis"));
+    }
+    check_memory(w, h)
+}
+
 /// Refuses a resolution whose render would not fit in the available memory, with both figures.
 ///
 /// # Errors
