@@ -471,6 +471,72 @@ impl ThresholdMapper {
         velocity: Option<&[f32]>,
         eye: EyeTracking,
     ) -> Result<Vec<ThresholdMap>> {
+        let white: Vec<f32> = self.bands.iter().map(|b| b.noise_share).collect();
+        self.compute_scaled_for_error(luminance, scales, velocity, eye, &white)
+    }
+
+    /// The share of the power of `error` (any units, row-major `width × height`, its mean
+    /// removed first) that falls in each band of [`ThresholdMapper::band_frequencies_cpd`], in
+    /// that order: Σ B_k² / Σ e² over the padded canvas, with B_k the band of the map's
+    /// windows (Parseval: the mean of H_k² weighted by the error's power spectrum). For white
+    /// noise these are the shares φ_k² that [`ThresholdMap::noise_contrast`] assumes; an error
+    /// whose power sits at lower frequencies (a denoised image's blotches) has larger shares
+    /// in coarse bands, where the eye is more sensitive. All zero for an error that is
+    /// constant.
+    ///
+    /// # Errors
+    /// [`PerceptionError`] if `error` has the wrong length or holds NaN or infinite values.
+    pub fn band_power_shares(&self, error: &[f32]) -> Result<Vec<f32>> {
+        check_image("error", error, self.width, self.height, 1, false)?;
+        let mean = error.iter().map(|&v| v as f64).sum::<f64>() / error.len() as f64;
+        let centred: Vec<f32> = error.iter().map(|&v| (v as f64 - mean) as f32).collect();
+        let canvas = self.pad.pad(&centred);
+        let total = canvas.iter().map(|&v| (v as f64).powi(2)).sum::<f64>() / canvas.len() as f64;
+        if total <= 0.0 {
+            return Ok(vec![0.0; self.bands.len()]);
+        }
+        let spec = self.levels[0].fft.forward(&canvas);
+        Ok(self
+            .bands
+            .iter()
+            .map(|band| {
+                let b = self.synthesize(&spec, band.level, &band.filter);
+                let power = b.iter().map(|&v| (v as f64).powi(2)).sum::<f64>() / b.len() as f64;
+                (power / total) as f32
+            })
+            .collect())
+    }
+
+    /// As [`ThresholdMapper::compute_scaled`], with the threshold RMS contrast
+    /// ([`ThresholdMap::noise_contrast`]) of an error whose power falls in the bands in the
+    /// proportions `shares` ([`ThresholdMapper::band_power_shares`]) instead of white noise's:
+    /// C = 1 / √(Σ_k φ_k² S_k² / M_k²) with the given φ_k². The other maps are unchanged.
+    ///
+    /// # Errors
+    /// As [`ThresholdMapper::compute_scaled`]; [`PerceptionError::Parameter`] if `shares` does
+    /// not hold one finite value ≥ 0 per band.
+    pub fn compute_scaled_for_error(
+        &self,
+        luminance: &[f32],
+        scales: &[f32],
+        velocity: Option<&[f32]>,
+        eye: EyeTracking,
+        shares: &[f32],
+    ) -> Result<Vec<ThresholdMap>> {
+        if shares.len() != self.bands.len() {
+            return Err(PerceptionError::Parameter {
+                name: "number of band power shares",
+                value: shares.len() as f64,
+                range: "one per band of band_frequencies_cpd",
+            });
+        }
+        if let Some(&v) = shares.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+            return Err(PerceptionError::Parameter {
+                name: "band power share",
+                value: v as f64,
+                range: "finite and ≥ 0",
+            });
+        }
         let (w, h) = (self.width, self.height);
         check_image("luminance", luminance, w, h, 1, true)?;
         if let Some(v) = velocity {
@@ -496,7 +562,7 @@ impl ThresholdMapper {
             height: h,
             v_retinal: v_retinal.as_deref(),
         };
-        let sums = self.band_sums(&spec, canvas, &adapt, &ctx, scales);
+        let sums = self.band_sums(&spec, canvas, &adapt, &ctx, scales, shares);
         Ok(adapt
             .iter()
             .zip(sums)
@@ -553,18 +619,19 @@ impl ThresholdMapper {
         adapt: &[Adaptation],
         ctx: &PointContext,
         scales: &[f32],
+        shares: &[f32],
     ) -> Vec<Vec<[f32; NSUM]>> {
         let lv2 = &self.levels[1];
         let (w2, h2) = (lv2.fft.width(), lv2.fft.height());
         let mut acc: Vec<Option<Vec<[f32; NSUM]>>> = vec![None; scales.len()];
-        for band in self.bands.iter().skip(2).rev() {
+        for (band, &share) in self.bands.iter().zip(shares).skip(2).rev() {
             let lv = &self.levels[band.level];
             let (lw, lh) = (lv.fft.width(), lv.fft.height());
             let b = self.synthesize(spec, band.level, &band.filter);
             let lp = self.synthesize(spec, band.level, band.lowpass.as_ref().expect("k ≥ 2"));
             let amp = local_amplitude(&b, lw, lh, band.blur_radius);
             for ((a, &k), slot) in adapt.iter().zip(scales).zip(acc.iter_mut()) {
-                let mut sums = self.eval_band(band, band.level, &amp, &lp, a, k, ctx);
+                let mut sums = self.eval_band(band, share, band.level, &amp, &lp, a, k, ctx);
                 if let Some(coarse) = slot {
                     upsample2_add(coarse, lw / 2, lh / 2, &mut sums, lw);
                 }
@@ -579,7 +646,7 @@ impl ThresholdMapper {
             .collect();
         let (pw, ph) = (self.pad.padded_width, self.pad.padded_height);
         let mut lowpass = canvas;
-        for band in self.bands.iter().take(2) {
+        for (band, &share) in self.bands.iter().zip(shares).take(2) {
             let b = self.synthesize(spec, 0, &band.filter);
             lowpass
                 .par_iter_mut()
@@ -588,7 +655,7 @@ impl ThresholdMapper {
             let amp = decimate2(&local_amplitude(&b, pw, ph, band.blur_radius), pw, ph);
             let lp = decimate2(&lowpass, pw, ph);
             for ((a, &k), total) in adapt.iter().zip(scales).zip(acc2.iter_mut()) {
-                let sums = self.eval_band(band, 1, &amp, &lp, a, k, ctx);
+                let sums = self.eval_band(band, share, 1, &amp, &lp, a, k, ctx);
                 total
                     .par_iter_mut()
                     .zip(sums.par_iter())
@@ -603,11 +670,12 @@ impl ThresholdMapper {
     }
 
     /// One band's contributions on `level`'s grid for the image scaled by `k` (amplitude and
-    /// low-pass of the unscaled image).
+    /// low-pass of the unscaled image), with the error's power share `share` in the band.
     #[allow(clippy::too_many_arguments)]
     fn eval_band(
         &self,
         band: &Band,
+        share: f32,
         level: usize,
         amp: &[f32],
         lp: &[f32],
@@ -627,7 +695,7 @@ impl ThresholdMapper {
                 let l2 = fast_log2(la.max(1e-30));
                 let s_max = self.peak.get_log2(l2);
                 let v = ctx.velocity_at(xf, yf);
-                *o = self.contribution(band, amp[i] * k, lp[i] * k, l2, s_max, v);
+                *o = self.contribution(band, share, amp[i] * k, lp[i] * k, l2, s_max, v);
             }
         });
         sums
@@ -733,13 +801,15 @@ impl ThresholdMapper {
             .collect()
     }
 
-    /// The weighted terms (w, w E, w M, w E M) of one band at one point, given the band
-    /// amplitude and low-pass (cd/m²), log2 of the adaptation luminance, the peak sensitivity
-    /// S_max there, and the retinal velocity.
+    /// The weighted terms (w, w E, w M, w E M, φ² S² / M²) of one band at one point, given the
+    /// error's power share φ² in the band, the band amplitude and low-pass (cd/m²), log2 of the
+    /// adaptation luminance, the peak sensitivity S_max there, and the retinal velocity.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn contribution(
         &self,
         band: &Band,
+        share: f32,
         amp: f32,
         lowpass: f32,
         la_log2: f32,
@@ -765,13 +835,7 @@ impl ThresholdMapper {
             1.0
         };
         let sm = s / m;
-        [
-            wgt,
-            wgt * e,
-            wgt * m,
-            wgt * e * m,
-            band.noise_share * sm * sm,
-        ]
+        [wgt, wgt * e, wgt * m, wgt * e * m, share * sm * sm]
     }
 
     /// Bilinear sample of a level canvas (decimation `d`) at full-canvas coordinates (pixel

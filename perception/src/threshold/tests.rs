@@ -368,3 +368,111 @@ fn noise_shares_match_the_mean_over_the_frequency_square() {
     let total: f64 = (0..12).map(noise_share).sum();
     assert!(total > 0.5 && total < 1.0, "Σ φ² = {total}");
 }
+
+/// Uniform white noise in [−1, 1) from a 64-bit LCG (Knuth's MMIX constants).
+fn white_noise(n: usize, seed: u64) -> Vec<f32> {
+    let mut x = seed;
+    (0..n)
+        .map(|_| {
+            x = x
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((x >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+        })
+        .collect()
+}
+
+#[test]
+fn white_noise_puts_the_analytic_share_of_its_power_in_each_band() {
+    // The measured shares of white noise must be the φ_k² the noise threshold assumes
+    // (noise_share, by Simpson's rule on the windows). A band holding φ² of N = 65,536
+    // independent values' power is estimated from about φ² N/2 independent frequencies
+    // (a real image's spectrum is Hermitian), each an exponential variate: relative standard
+    // error √(2 / (φ² N)). Bands estimated from fewer than 400 frequencies are not checked.
+    let (w, h) = (256, 256);
+    let m = ThresholdMapper::new(
+        w,
+        h,
+        ViewingConditions::default(),
+        ThresholdParams::default(),
+    )
+    .unwrap();
+    let shares = m.band_power_shares(&white_noise(w * h, 7)).unwrap();
+    assert_eq!(shares.len(), m.band_frequencies_cpd().len());
+    let n = (w * h) as f64;
+    for (k, &got) in shares.iter().enumerate() {
+        let want = noise_share(k);
+        if want * n / 2.0 < 400.0 {
+            continue;
+        }
+        let se = (2.0 / (want * n)).sqrt();
+        assert!(
+            (got as f64 / want - 1.0).abs() < 5.0 * se,
+            "band {k}: {got} vs {want} (relative standard error {se:.3})"
+        );
+    }
+    // A constant has no power anywhere.
+    assert!(
+        m.band_power_shares(&vec![3.0; w * h])
+            .unwrap()
+            .iter()
+            .all(|&s| s == 0.0)
+    );
+}
+
+#[test]
+fn blotchy_error_is_seen_at_a_lower_contrast_than_white_noise() {
+    // The same noise box-filtered over 9×9 pixels (a denoised image's blotches) moves its
+    // power from band 0 (33 cpd at 67 ppd, S ≈ 5 at 100 cd/m²) to bands 3–4 (4–8 cpd, near
+    // the CSF's peak S ≈ 200); band 0 keeps only the box's sinc² sidelobes, ≈ 1/(9πf)² or a
+    // few per cent at f ≈ ¼–½ cycle/pixel. At equal RMS contrast it is far more visible, so its
+    // threshold RMS contrast is several times lower. Given white noise's own shares, the threshold is
+    // white noise's, bit for bit.
+    let (w, h) = (256, 256);
+    let m = ThresholdMapper::new(
+        w,
+        h,
+        ViewingConditions::default(),
+        ThresholdParams::default(),
+    )
+    .unwrap();
+    let white = white_noise(w * h, 11);
+    let blotchy = box_blur(&white, w, h, 4);
+    let ws = m.band_power_shares(&white).unwrap();
+    let bs = m.band_power_shares(&blotchy).unwrap();
+    assert!(
+        bs[0] < 0.1 * ws[0] && bs[3] > 3.0 * ws[3],
+        "{ws:?} vs {bs:?}"
+    );
+    let flat = vec![100.0; w * h];
+    let eye = EyeTracking::PerPixel;
+    let c = (h / 2) * w + w / 2;
+    let base = m.compute_scaled(&flat, &[1.0], None, eye).unwrap();
+    let same = m
+        .compute_scaled_for_error(&flat, &[1.0], None, eye, &ws)
+        .unwrap();
+    let analytic: Vec<f32> = (0..ws.len()).map(|k| noise_share(k) as f32).collect();
+    let exact = m
+        .compute_scaled_for_error(&flat, &[1.0], None, eye, &analytic)
+        .unwrap();
+    assert_eq!(exact[0], base[0]);
+    let ratio = same[0].noise_contrast[c] / base[0].noise_contrast[c];
+    assert!((ratio - 1.0).abs() < 0.05, "measured white shares: {ratio}");
+    let blot = m
+        .compute_scaled_for_error(&flat, &[1.0], None, eye, &bs)
+        .unwrap();
+    let lower = base[0].noise_contrast[c] / blot[0].noise_contrast[c];
+    assert!(lower > 3.0, "blotchy error's threshold only {lower}× lower");
+    // The other maps do not depend on the error.
+    assert_eq!(blot[0].threshold, base[0].threshold);
+    assert!(
+        m.compute_scaled_for_error(&flat, &[1.0], None, eye, &bs[1..])
+            .is_err()
+    );
+    let mut bad = bs.clone();
+    bad[0] = f32::NAN;
+    assert!(
+        m.compute_scaled_for_error(&flat, &[1.0], None, eye, &bad)
+            .is_err()
+    );
+}
