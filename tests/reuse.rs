@@ -111,6 +111,8 @@ fn still_result() -> AdaptiveResult {
         velocity: None,
         gbuffer: None,
         reuse: None,
+        denoised: None,
+        denoise_time: Default::default(),
     }
 }
 

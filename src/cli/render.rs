@@ -7,8 +7,8 @@ use aleph::adaptive::{
 };
 use aleph::display::ToneMapSettings;
 use aleph::job::{
-    Budget, FrameDone, JobReport, Observer, PartReport, RenderJob, SamplingOptions, SequenceReport,
-    Split, TileReport, scene_name,
+    Budget, FrameDone, JobReport, Observer, PartReport, Refined, RenderJob, SamplingOptions,
+    SequenceReport, Split, TileReport, scene_name,
 };
 use aleph::scene::Scene;
 use anyhow::Context;
@@ -286,6 +286,11 @@ pub struct RenderArgs {
     /// (docs/denoise.md).
     #[arg(long)]
     pub(super) denoise: bool,
+    /// A progressive preview of a still: the perceptual sampler from 2 spp, denoised when the
+    /// build has the denoiser, OUT.png rewritten (atomically) after every pass until the
+    /// perceptual stop or --time; OUT.exr at the end (docs/denoise.md).
+    #[arg(long)]
+    pub(super) preview: bool,
     /// Frames of an animated scene to render, FIRST-LAST (inclusive; default: the scene's whole
     /// [animation] range). Outputs are numbered OUT.0001.exr, OUT.0001.png, …, plus
     /// OUT.preview.png (an animated PNG) and OUT.filmstrip.png.
@@ -413,6 +418,7 @@ impl RenderArgs {
         });
         job.output.aov = self.aov;
         job.output.denoise = self.denoise;
+        job.output.preview = self.preview;
         job.validate()?;
         Ok(job)
     }
@@ -503,6 +509,23 @@ impl Observer for CliObserver {
             p.mean_spp,
             100.0 * p.converged_fraction
         ));
+    }
+
+    fn refined(&self, r: &Refined<'_>) {
+        let what = if r.denoised {
+            "denoised"
+        } else {
+            "not denoised: this build has no denoiser"
+        };
+        self.multi.suspend(|| {
+            eprintln!(
+                "preview {}: {:.1} spp mean, {what}, at {:.2} s -> {}",
+                r.passes,
+                r.mean_spp,
+                r.elapsed.as_secs_f64(),
+                r.path.display()
+            )
+        });
     }
 
     fn frame_done(&self, d: &FrameDone<'_>) {

@@ -72,6 +72,7 @@ mod temporal;
 
 pub use temporal::{REUSE_CAP_SHARE, render_reusing};
 
+use crate::denoise::{Aux, Denoised};
 use crate::display::ToneMapSettings;
 use crate::film::Film;
 use crate::gbuffer::GBuffer;
@@ -80,7 +81,7 @@ use crate::render::{RenderStats, render_counts};
 use crate::scene::Scene;
 use crate::velocity::{VelocityMap, render_velocity};
 use allocate::{Allocation, allocate, fit_to_budget};
-use criterion::{Judge, PerceptualCriterion, VarianceCriterion};
+use criterion::{Judge, Judgement, PerceptualCriterion, VarianceCriterion};
 use perception::threshold::ThresholdParams;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
@@ -209,6 +210,11 @@ pub struct AdaptiveSettings {
     /// so that the threshold map sees every pixel; the budget, the converged fraction and the
     /// stop rule count the tile's pixels only.
     pub rows: Option<(u32, u32)>,
+    /// Whether the image is denoised ([`crate::denoise`], the `denoise` feature; default
+    /// false): the loop renders the denoiser's auxiliary images before its first pass, the
+    /// perceptual rule judges the error of the *denoised* image (its two half-buffers denoised
+    /// apart, [`criterion`]'s module docs), and the result carries the denoised image.
+    pub denoise: bool,
 }
 
 /// Settings of the perceptual rule only.
@@ -268,6 +274,7 @@ impl Default for AdaptiveSettings {
             perceptual: PerceptualSettings::default(),
             variance_threshold: CYCLES_DEFAULT_THRESHOLD,
             rows: None,
+            denoise: false,
         }
     }
 }
@@ -348,6 +355,9 @@ pub enum AdaptiveError {
     /// The perception model rejected an image or the tone settings.
     #[error(transparent)]
     Perception(#[from] perception::PerceptionError),
+    /// The denoiser failed.
+    #[error(transparent)]
+    Denoise(#[from] crate::denoise::DenoiseError),
 }
 
 impl AdaptiveSettings {
@@ -434,6 +444,9 @@ impl AdaptiveSettings {
         if self.time_budget.is_some_and(|t| t.is_zero()) {
             return bad("time_budget (--time) must be positive".into());
         }
+        if self.denoise && !crate::denoise::AVAILABLE {
+            return bad(format!("--denoise: {}", crate::denoise::HOW_TO_BUILD));
+        }
         Ok(())
     }
 }
@@ -485,6 +498,12 @@ pub struct AdaptiveResult {
     pub gbuffer: Option<GBuffer>,
     /// What the frame reused from earlier frames (`None` when it reused nothing).
     pub reuse: Option<ReuseReport>,
+    /// The denoised image, when [`AdaptiveSettings::denoise`] is set.
+    pub denoised: Option<Denoised>,
+    /// Wall time of denoising: the auxiliary images, the judgements' denoising of the
+    /// half-buffers and the final image (included in `wall` and, for the judgements, in
+    /// `decision_time`).
+    pub denoise_time: Duration,
 }
 
 /// What one frame reused from the frames before it ([`crate::reuse`]).
@@ -567,6 +586,41 @@ impl LoopState {
     }
 
     /// Samples taken in the region.
+    /// The loop's result (without guide statistics, G-buffer, reuse or denoised image): the
+    /// converged fraction of the last pass, the last judgement's maps.
+    fn finish(
+        self,
+        s: &AdaptiveSettings,
+        stop: StopReason,
+        judgement: Option<Judgement>,
+        velocity: Option<VelocityMap>,
+        start: Instant,
+    ) -> AdaptiveResult {
+        let converged_fraction = self.passes.last().map_or(0.0, |p| p.converged_fraction);
+        let (threshold, error) = match judgement {
+            Some(j) => (Some(j.threshold), Some(j.error)),
+            None => (None, None),
+        };
+        AdaptiveResult {
+            film: self.film,
+            stats: self.stats,
+            guide_stats: None,
+            passes: self.passes,
+            stop,
+            converged_fraction,
+            threshold,
+            error,
+            units: s.units(),
+            decision_time: self.decision_time,
+            wall: start.elapsed(),
+            velocity,
+            gbuffer: None,
+            reuse: None,
+            denoised: None,
+            denoise_time: Duration::ZERO,
+        }
+    }
+
     fn region_samples(&self) -> u64 {
         self.film.pixels[self.region.clone()]
             .iter()
@@ -591,27 +645,90 @@ impl LoopState {
 /// # Errors
 /// [`AdaptiveError::Settings`] for a setting out of range ([`AdaptiveSettings::validate`]);
 /// [`AdaptiveError::Perception`] if the perception model rejects the images (it should not for
-/// a valid render) or the tone settings are invalid.
+/// a valid render) or the tone settings are invalid; [`AdaptiveError::Denoise`] if the
+/// denoiser fails.
 pub fn render_adaptive(
     scene: &Scene,
     s: &AdaptiveSettings,
     progress: &(dyn Fn(&PassReport) + Sync),
     sample_progress: &(dyn Fn(u64) + Sync),
 ) -> Result<AdaptiveResult, AdaptiveError> {
-    s.validate()?;
-    let gbuffer = GBuffer::render(scene);
-    let mut r = adaptive_loop(scene, s, progress, sample_progress)?;
-    r.gbuffer = Some(gbuffer);
-    Ok(r)
+    render_adaptive_refining(scene, s, progress, sample_progress, &|_| {})
 }
 
-/// [`render_adaptive`] without the G-buffer.
-fn adaptive_loop(
+/// The image after a pass of the adaptive loop, for a progressive preview.
+pub struct Refinement<'a> {
+    /// Passes rendered so far (1 after the first).
+    pub passes: usize,
+    /// The sample buffers.
+    pub film: &'a Film,
+    /// The denoiser's auxiliary images, when the loop denoises ([`AdaptiveSettings::denoise`]).
+    pub aux: Option<&'a Aux>,
+}
+
+/// [`render_adaptive`], calling `refined` with the film after every pass that added samples,
+/// before it is judged (so a preview shows each refinement as early as it can).
+///
+/// # Errors
+/// As [`render_adaptive`].
+pub fn render_adaptive_refining(
     scene: &Scene,
     s: &AdaptiveSettings,
     progress: &(dyn Fn(&PassReport) + Sync),
     sample_progress: &(dyn Fn(u64) + Sync),
+    refined: &(dyn Fn(&Refinement) + Sync),
 ) -> Result<AdaptiveResult, AdaptiveError> {
+    s.validate()?;
+    let t_aux = Instant::now();
+    let aux = s
+        .denoise
+        .then(|| crate::denoise::render_aux(scene, crate::denoise::AUX_SPP, scene.settings.seed));
+    let aux_time = t_aux.elapsed();
+    let hooks = Hooks {
+        progress,
+        sample_progress,
+        refined,
+        aux: aux.as_ref(),
+    };
+    let mut r = adaptive_loop(scene, s, &hooks)?;
+    if let Some(aux) = aux {
+        let t = Instant::now();
+        let noisy = r.film.mean_rgb();
+        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+        let rgb = crate::denoise::denoise(&noisy, w, h, &aux)?;
+        r.denoise_time = aux_time + t.elapsed();
+        r.wall += r.denoise_time;
+        r.denoised = Some(Denoised { rgb, noisy, aux });
+    }
+    r.gbuffer = Some(GBuffer::render(scene));
+    Ok(r)
+}
+
+/// What the loop reports to and gives its caller's callbacks.
+struct Hooks<'a> {
+    progress: &'a (dyn Fn(&PassReport) + Sync),
+    sample_progress: &'a (dyn Fn(u64) + Sync),
+    refined: &'a (dyn Fn(&Refinement) + Sync),
+    aux: Option<&'a Aux>,
+}
+
+impl Hooks<'_> {
+    fn refined(&self, passes: usize, film: &Film) {
+        (self.refined)(&Refinement {
+            passes,
+            film,
+            aux: self.aux,
+        });
+    }
+}
+
+/// [`render_adaptive`] without the G-buffer and the final denoising.
+fn adaptive_loop(
+    scene: &Scene,
+    s: &AdaptiveSettings,
+    hooks: &Hooks,
+) -> Result<AdaptiveResult, AdaptiveError> {
+    let (progress, sample_progress) = (hooks.progress, hooks.sample_progress);
     let start = Instant::now();
     let integrator = Integrator {
         max_depth: scene.settings.max_depth,
@@ -623,6 +740,7 @@ fn adaptive_loop(
         // The uniform sampler, or a budget too small to steer: one uniform pass of the whole
         // budget over the rows this render owns.
         let mut r = render_uniform_budget(scene, s, st, progress, sample_progress, start);
+        hooks.refined(1, &r.film);
         r.velocity = velocity;
         return Ok(r);
     }
@@ -637,6 +755,7 @@ fn adaptive_loop(
     let pass = render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
     st.unreported_render = pass.wall;
     st.stats += pass;
+    hooks.refined(1, &st.film);
     if budget_total.is_some_and(|b| st.region_samples() as f64 >= b as f64 - 0.002 * n_px as f64) {
         return Ok(unjudged(st, s, progress, velocity, start));
     }
@@ -650,7 +769,7 @@ fn adaptive_loop(
     let (judgement, stop) = loop {
         let t0 = Instant::now();
         let refresh_before = criterion.next_refresh_spp();
-        let (judgement, guide_time) = criterion.judge(scene, &st.film, s)?;
+        let (judgement, guide_time) = criterion.judge(scene, &st.film, s, hooks.aux)?;
         let noise = criterion.relative_noise(&st.film);
         let ratio = Judge::ratio(&judgement, noise.as_deref());
         let judged = t0.elapsed().saturating_sub(guide_time);
@@ -659,27 +778,20 @@ fn adaptive_loop(
         let converged = st.report(&ratio, progress);
         let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
         let floor = pixel_floor(s, &st);
-        if let Some(reason) = stop_before_pass(s, &st, converged, remaining, start) {
-            // A converged stop first lifts the pixels left under the floor.
-            let lifts = |f| {
-                let mut lift = Allocation::empty(st.film.len());
-                allocate::raise_to_floor(&mut lift, &st.film, &ratio, noise.as_deref(), f, cap);
-                st.clip(&mut lift);
-                lift.total() > 0
-            };
-            if reason != StopReason::Converged || !floor.is_some_and(lifts) {
-                break (judgement, reason);
-            }
+        // A converged stop first lifts the pixels left under the floor.
+        let lifts = |f| floor_lifts(&st, &ratio, noise.as_deref(), f, cap);
+        if let Some(reason) = stop_before_pass(s, &st, converged, remaining, start)
+            && (reason != StopReason::Converged || !floor.is_some_and(lifts))
+        {
+            break (judgement, reason);
         }
         let done = converged >= s.converged_fraction;
         let mut alloc = plan_pass(&st, &ratio, noise.as_deref(), floor, remaining, done, cap);
         if alloc.total() == 0 {
-            let reason = if converged >= s.converged_fraction {
-                StopReason::Converged
-            } else {
-                StopReason::MaxSpp
-            };
-            break (judgement, reason);
+            break (
+                judgement,
+                [StopReason::MaxSpp, StopReason::Converged][done as usize],
+            );
         }
         if let Some(rem) = remaining {
             fit_to_budget(&mut alloc, &st.film, &ratio, rem, cap);
@@ -702,29 +814,11 @@ fn adaptive_loop(
         rate = pass.samples as f64 / pass.wall.as_secs_f64().max(1e-9);
         st.unreported_render = pass.wall;
         st.stats += pass;
+        hooks.refined(st.passes.len() + 1, &st.film);
     };
-    let converged_fraction = st
-        .passes
-        .last()
-        .map(|p| p.converged_fraction)
-        .unwrap_or(0.0);
-    let units = s.units();
-    Ok(AdaptiveResult {
-        film: st.film,
-        stats: st.stats,
-        guide_stats: criterion.guide_stats(),
-        passes: st.passes,
-        stop,
-        converged_fraction,
-        threshold: Some(judgement.threshold),
-        error: Some(judgement.error),
-        units,
-        decision_time: st.decision_time,
-        wall: start.elapsed(),
-        velocity,
-        gbuffer: None,
-        reuse: None,
-    })
+    let mut r = st.finish(s, stop, Some(judgement), velocity, start);
+    r.guide_stats = criterion.guide_stats();
+    Ok(r)
 }
 
 /// The per-pixel judge of `s.criterion` (the perceptual one sees the frame's motion unless
@@ -770,6 +864,15 @@ fn affordable_samples(
         samples = affordable(cost.refresh);
     }
     ((samples as f64) >= 0.002 * n_px).then_some(samples)
+}
+
+/// Whether raising the pixels under `floor` samples ([`allocate::raise_to_floor`]) would give
+/// any pixel of the region samples.
+fn floor_lifts(st: &LoopState, ratio: &[f32], noise: Option<&[f32]>, floor: u32, cap: u32) -> bool {
+    let mut lift = Allocation::empty(st.film.len());
+    allocate::raise_to_floor(&mut lift, &st.film, ratio, noise, floor, cap);
+    st.clip(&mut lift);
+    lift.total() > 0
 }
 
 /// The next pass's allocation from the current ratios (and relative noise): the doublings
@@ -832,22 +935,7 @@ fn unjudged(
     start: Instant,
 ) -> AdaptiveResult {
     st.report(&vec![f32::INFINITY; st.film.len()], progress);
-    AdaptiveResult {
-        film: st.film,
-        stats: st.stats,
-        guide_stats: None,
-        passes: st.passes,
-        stop: StopReason::Budget,
-        converged_fraction: 0.0,
-        threshold: None,
-        error: None,
-        units: s.units(),
-        decision_time: Duration::ZERO,
-        wall: start.elapsed(),
-        velocity,
-        gbuffer: None,
-        reuse: None,
-    }
+    st.finish(s, StopReason::Budget, None, velocity, start)
 }
 
 /// The perceptual sampler's floor, rounded down to a stratified total: under a budget B,
@@ -932,5 +1020,7 @@ fn render_uniform_budget(
         velocity: None,
         gbuffer: None,
         reuse: None,
+        denoised: None,
+        denoise_time: Duration::ZERO,
     }
 }

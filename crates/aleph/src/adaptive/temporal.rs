@@ -97,7 +97,7 @@ pub fn render_reusing(
     };
     let (judgement, stop) = loop {
         let t0 = Instant::now();
-        let (mut judgement, guide_time) = judge.judge(scene, &st.film, s)?;
+        let (mut judgement, guide_time) = judge.judge(scene, &st.film, s, None)?;
         add_bias(
             &mut judgement.error,
             &tested.bias,
@@ -168,6 +168,8 @@ pub fn render_reusing(
         velocity,
         gbuffer: Some(gbuffer),
         reuse: Some(reuse),
+        denoised: None,
+        denoise_time: Duration::ZERO,
     })
 }
 

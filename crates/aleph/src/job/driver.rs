@@ -4,7 +4,10 @@
 //! summary lines are one.
 
 use super::{JobError, RenderJob, Split, content_hash};
-use crate::adaptive::{AdaptiveResult, AdaptiveSettings, PassReport, render_adaptive};
+use crate::adaptive::{
+    AdaptiveResult, AdaptiveSettings, PassReport, Refinement, render_adaptive,
+    render_adaptive_refining,
+};
 use crate::deliver::{Look, numbered, with_ext, write_render, write_sequence_outputs};
 use crate::display::ToneMapSettings;
 use crate::partial::{part_path, part_range, render_part, tile_of, write_partial};
@@ -31,6 +34,22 @@ pub trait Observer: Sync {
     fn samples(&self, _n: u64) {}
     /// A frame (or the still) was rendered and, with an output stem, written.
     fn frame_done(&self, _done: &FrameDone<'_>) {}
+    /// A preview's refinement was written ([`super::OutputSpec::preview`]).
+    fn refined(&self, _refinement: &Refined<'_>) {}
+}
+
+/// One refinement of a preview, as [`Observer::refined`] sees it.
+pub struct Refined<'a> {
+    /// Passes rendered so far (1 after the first).
+    pub passes: usize,
+    /// Mean samples per pixel of the image.
+    pub mean_spp: f64,
+    /// Whether it was denoised.
+    pub denoised: bool,
+    /// The PNG written.
+    pub path: &'a Path,
+    /// Wall time since the frame's render began.
+    pub elapsed: Duration,
 }
 
 impl Observer for () {}
@@ -164,6 +183,11 @@ pub fn run_on(
         (None, None) => None,
     };
     match range {
+        Some(_) if job.output.preview => Err(JobError::Invalid(format!(
+            "{}: --preview is of one still; this scene is animated (render one --frame \
+             without --preview, or the sequence)",
+            scene.path.display()
+        ))),
         Some((first, last)) => {
             render_sequence(job, scene, first, last, observer).map(JobReport::Sequence)
         }
@@ -192,9 +216,63 @@ fn render_frame(
     stem: Option<&Path>,
     observer: &dyn Observer,
 ) -> Result<(AdaptiveResult, Vec<u8>), JobError> {
-    let result = adaptive(scene, settings, None, observer)?;
+    let result = match stem.filter(|_| job.output.preview) {
+        Some(stem) => preview(scene, settings, look, stem, observer)?,
+        None => adaptive(scene, settings, None, observer)?,
+    };
     let display = deliver_frame(job, scene, settings, look, stem, observer, &result)?;
     Ok((result, display))
+}
+
+/// The adaptive loop of a preview: after every pass the image (denoised when the loop
+/// denoises) goes to STEM.png, atomically, and to the observer.
+fn preview(
+    scene: &Scene,
+    settings: &AdaptiveSettings,
+    look: Look,
+    stem: &Path,
+    observer: &dyn Observer,
+) -> Result<AdaptiveResult, JobError> {
+    let start = Instant::now();
+    let png = with_ext(stem, "png");
+    let failed = std::sync::Mutex::new(None);
+    let refined = |r: &Refinement| {
+        if failed.lock().expect("not poisoned").is_some() {
+            return;
+        }
+        match write_refinement(scene, r, look, &png) {
+            Ok(()) => observer.refined(&Refined {
+                passes: r.passes,
+                mean_spp: r.film.total_samples() as f64 / r.film.len() as f64,
+                denoised: r.aux.is_some(),
+                path: &png,
+                elapsed: start.elapsed(),
+            }),
+            Err(e) => *failed.lock().expect("not poisoned") = Some(e),
+        }
+    };
+    let frame = scene.animation.map(|_| scene.frame.index);
+    let pass = |p: &PassReport| observer.pass(frame, p);
+    let samples = |n| observer.samples(n);
+    let result = render_adaptive_refining(scene, settings, &pass, &samples, &refined)?;
+    match failed.into_inner().expect("not poisoned") {
+        Some(e) => Err(e),
+        None => Ok(result),
+    }
+}
+
+/// Writes one refinement's display image to `png` (atomically).
+fn write_refinement(scene: &Scene, r: &Refinement, look: Look, png: &Path) -> Result<(), JobError> {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let mut rgb = r.film.mean_rgb();
+    if let Some(aux) = r.aux {
+        rgb = crate::denoise::denoise(&rgb, w as usize, h as usize, aux)?;
+    }
+    let (display, _) = crate::deliver::display_image(&rgb, w as usize, h as usize, look)?;
+    let mut out = crate::output::AtomicOutputs::new();
+    out.stage(png, |wr| crate::output::write_png(wr, png, w, h, &display))?;
+    out.commit()?;
+    Ok(())
 }
 
 /// Writes a rendered frame to `stem` (if any) and reports it; returns the display image
@@ -210,16 +288,18 @@ fn deliver_frame(
 ) -> Result<Vec<u8>, JobError> {
     let (display, words) = match stem {
         Some(stem) => {
+            // The loop denoised the image when it judged the denoised error; a frame that
+            // reused earlier frames is denoised here.
             let t = std::time::Instant::now();
-            let denoised = if job.output.denoise {
-                Some(crate::denoise::denoise_render(
+            let late = match (&result.denoised, job.denoises()) {
+                (None, true) => Some(crate::denoise::denoise_render(
                     scene,
                     result.film.mean_rgb(),
-                )?)
-            } else {
-                None
+                )?),
+                _ => None,
             };
-            let denoise_s = t.elapsed().as_secs_f64();
+            let denoised = result.denoised.as_ref().or(late.as_ref());
+            let denoise_s = (t.elapsed() + result.denoise_time).as_secs_f64();
             let w = write_render(
                 scene,
                 stem,
@@ -227,7 +307,7 @@ fn deliver_frame(
                 result,
                 look,
                 job.output.aov,
-                denoised.as_ref(),
+                denoised,
             )?;
             let words = match denoised {
                 Some(_) => format!(

@@ -170,6 +170,8 @@ pub fn merge(parts: &[PathBuf], stem: &Path) -> Result<MergeReport, JobError> {
         velocity: crate::velocity::render_velocity(&scene),
         gbuffer: Some(crate::gbuffer::GBuffer::render(&scene)),
         reuse: None,
+        denoised: None,
+        denoise_time: std::time::Duration::ZERO,
         film,
     };
     let written = write_render(&scene, &stem, &settings, &result, look, false, None)?;

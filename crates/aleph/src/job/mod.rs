@@ -16,7 +16,7 @@ mod driver;
 mod merge;
 
 pub use driver::{
-    FrameDone, JobReport, Observer, PartReport, SequenceReport, TileReport, run, run_on,
+    FrameDone, JobReport, Observer, PartReport, Refined, SequenceReport, TileReport, run, run_on,
 };
 pub use merge::{MergeReport, merge};
 
@@ -272,6 +272,11 @@ pub struct OutputSpec {
     /// Denoise each frame with Open Image Denoise ([`crate::denoise`]): the EXR's RGB and the
     /// PNG are the denoised image, the raw one is kept as `Noisy.R/G/B`.
     pub denoise: bool,
+    /// A progressive preview of a still: the perceptual sampler starts at 2 spp and steers
+    /// from its first pass ([`RenderJob::adaptive_settings`]), the image is denoised when the
+    /// build can ([`crate::denoise::AVAILABLE`]), and STEM.png is rewritten (atomically) after
+    /// every pass, until the perceptual stop or the time budget; STEM.exr comes at the end.
+    pub preview: bool,
 }
 
 impl Default for OutputSpec {
@@ -281,9 +286,13 @@ impl Default for OutputSpec {
             aov: false,
             sequence_outputs: true,
             denoise: false,
+            preview: false,
         }
     }
 }
+
+/// First-pass samples per pixel of a preview (the fewest the half-buffer estimate needs).
+pub const PREVIEW_MIN_SPP: u32 = 2;
 
 /// Errors of a render job. Each message names the file, the frame or the job field (with its
 /// command-line flag) it is about.
@@ -443,7 +452,34 @@ impl RenderJob {
                 );
             }
         }
+        self.validate_preview()?;
         self.validate_reuse()
+    }
+
+    /// A preview is one still, rendered whole by the perceptual sampler.
+    fn validate_preview(&self) -> Result<(), JobError> {
+        if !self.output.preview {
+            return Ok(());
+        }
+        let bad = |m: &str| Err(JobError::Invalid(format!("--preview: {m}")));
+        if self.split.is_some() {
+            return bad("a preview is rendered whole, not as --part/--tile");
+        }
+        if self.frames.is_some() {
+            return bad("a preview is of one still; --frames/--frame render a sequence");
+        }
+        if self.criterion != Criterion::Perceptual {
+            return bad(
+                "a preview refines where the perceptual sampler sees error; use --sampler \
+                 perceptual (the default)",
+            );
+        }
+        Ok(())
+    }
+
+    /// Whether the image is denoised: `--denoise`, or a preview in a build that can.
+    pub fn denoises(&self) -> bool {
+        self.output.denoise || (self.output.preview && crate::denoise::AVAILABLE)
     }
 
     fn validate_reuse(&self) -> Result<(), JobError> {
@@ -634,6 +670,16 @@ impl RenderJob {
             },
             variance_threshold: s.noise_threshold,
             rows: None,
+            denoise: self.denoises(),
+        };
+        let settings = if self.output.preview {
+            AdaptiveSettings {
+                min_spp: PREVIEW_MIN_SPP,
+                steer_from_spp: 0.0,
+                ..settings
+            }
+        } else {
+            settings
         };
         settings.validate()?;
         Ok(settings)
