@@ -214,7 +214,7 @@ pub struct DenoisedError {
 impl DenoisedError {
     /// The error estimate per pixel, √(d² + bias²). On the 64² Cornell box at 8 spp it ranks
     /// 4 × 4-pixel blocks like the true error of the denoised image (Spearman 0.62, against
-    /// 0.60 for the raw half-buffer difference and 0.56 for |d| alone) and is 0.7× its size
+    /// 0.60 for the raw half-buffer difference and 0.56 for |d| alone) and is 0.76× its size
     /// (|d| alone: 0.5×) (`tests/denoise.rs`).
     pub fn magnitude(&self) -> Vec<f32> {
         self.difference
