@@ -9,7 +9,7 @@ process of its own, timed from start to exit (load, auxiliary images and denoisi
 - `perceptual+oidn`: the perceptual sampler with the denoiser in its loop
   (`--denoise --steer-from 0`), under budgets of 4-64 spp;
 - `stop+oidn` and `stop`: the perceptual sampler's own stop (no budget) with and without
-  `--denoise`.
+  `--denoise` (with it the first pass is 32 spp: `aleph::job::DENOISED_STOP_MIN_SPP`).
 
 Each PNG (the image as displayed, aleph's default tone curve) is scored against a uniform
 reference of `--reference-spp` samples per pixel by FLIP (flip-evaluator, LDR, 67 ppd; mean and
@@ -162,7 +162,7 @@ def main():
             return f"{x / r[axis]:.2f}×" if x else "—"
 
         vs_oidn = ("—", "—")
-        if r["arm"] in ("perceptual+oidn", "stop+oidn"):
+        if r["arm"].startswith(("perceptual+oidn", "stop+oidn")):
             vs_oidn = (ratio("p99", True, "spp", den), ratio("jod", False, "spp", den))
         lines.append(
             f"| {r['arm']} | {r['budget'] or 'stop'} | {r['spp']:.1f} | {r['wall']:.2f} | {r['flip']:.4f} | "

@@ -245,6 +245,25 @@ mod with_oidn {
     }
 
     #[test]
+    fn the_stop_with_the_denoiser_starts_from_32_spp_and_a_preview_from_2() {
+        let first = |denoise: bool, preview: bool, spp: Option<f64>, min: u32| {
+            let mut job = aleph::job::RenderJob::new(repo("scenes/cornell-box/scene.toml"));
+            (job.output.denoise, job.output.preview) = (denoise, preview);
+            job.budget.spp = spp;
+            job.sampling.min_spp = min;
+            let tone = aleph::display::ToneMapSettings::default();
+            job.adaptive_settings(64, tone).unwrap().min_spp
+        };
+        let stop = aleph::job::DENOISED_STOP_MIN_SPP;
+        assert_eq!(first(true, false, None, 8), stop);
+        assert_eq!(first(true, false, None, 64), 64);
+        // Under a budget, without the denoiser and in a preview, the first pass is as asked.
+        assert_eq!(first(true, false, Some(16.0), 8), 8);
+        assert_eq!(first(false, false, None, 8), 8);
+        assert_eq!(first(false, true, None, 8), aleph::job::PREVIEW_MIN_SPP);
+    }
+
+    #[test]
     fn denoise_refuses_sample_parts() {
         let d = tempdir();
         let scene = repo("scenes/cornell-box/scene.toml");

@@ -70,7 +70,8 @@ pub enum VisibilityArg {
 /// Sampling options shared by `render` and `speedup`.
 #[derive(Args, Debug, Clone)]
 pub struct SamplingArgs {
-    /// Samples of the first, uniform pass of the adaptive samplers.
+    /// Samples of the first, uniform pass of the adaptive samplers (at least 32 for the
+    /// perceptual stop with --denoise; 2 for --preview).
     #[arg(
         long,
         value_name = "N",
