@@ -147,44 +147,13 @@ mod with_oidn {
         assert!(denoised.text.contains_key("denoiser"));
     }
 
-    /// Spearman's rank correlation of two samples (ties get their mean rank).
-    fn spearman(a: &[f64], b: &[f64]) -> f64 {
-        fn ranks(v: &[f64]) -> Vec<f64> {
-            let mut idx: Vec<usize> = (0..v.len()).collect();
-            idx.sort_by(|&i, &j| v[i].total_cmp(&v[j]));
-            let mut r = vec![0.0; v.len()];
-            let mut i = 0;
-            while i < idx.len() {
-                let mut j = i;
-                while j + 1 < idx.len() && v[idx[j + 1]] == v[idx[i]] {
-                    j += 1;
-                }
-                for k in i..=j {
-                    r[idx[k]] = (i + j) as f64 / 2.0;
-                }
-                i = j + 1;
-            }
-            r
-        }
-        let (ra, rb) = (ranks(a), ranks(b));
-        let n = a.len() as f64;
-        let mean = (n - 1.0) / 2.0;
-        let cov: f64 = ra
-            .iter()
-            .zip(&rb)
-            .map(|(x, y)| (x - mean) * (y - mean))
-            .sum();
-        let var: f64 = ra.iter().map(|x| (x - mean).powi(2)).sum();
-        cov / var
-    }
-
     /// Mean of |v| over each `b × b` block of a `w`-wide image.
-    fn blocks(v: &[f32], w: usize, b: usize) -> Vec<f64> {
+    fn blocks(v: &[f32], w: usize, b: usize) -> Vec<f32> {
         let h = v.len() / w;
         let mut out = vec![0.0; (w / b) * (h / b)];
         for (i, x) in v.iter().enumerate() {
             let (px, py) = (i % w / b, i / w / b);
-            out[py * (w / b) + px] += x.abs() as f64 / (b * b) as f64;
+            out[py * (w / b) + px] += x.abs() / (b * b) as f32;
         }
         out
     }
@@ -228,8 +197,10 @@ mod with_oidn {
             blocks(&raw, w, 4),
         );
         let d = blocks(&difference, w, 4);
+        let spearman = aleph_speedup::rank_correlation;
         let (rho, rho_raw, rho_d) = (spearman(&e, &t), spearman(&r, &t), spearman(&d, &t));
-        let size = e.iter().sum::<f64>() / t.iter().sum::<f64>();
+        let sum = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>();
+        let size = sum(&e) / sum(&t);
         eprintln!(
             "Spearman: estimate {rho:.3}, its half-buffer part {rho_d:.3}, raw half-buffers \
              {rho_raw:.3}; size {size:.2}× the truth"

@@ -382,6 +382,12 @@ fn white_noise(n: usize, seed: u64) -> Vec<f32> {
         .collect()
 }
 
+/// A mapper for a `w × h` image under the default viewing conditions and parameters.
+fn default_mapper(w: usize, h: usize) -> ThresholdMapper {
+    let (v, p) = (ViewingConditions::default(), ThresholdParams::default());
+    ThresholdMapper::new(w, h, v, p).unwrap()
+}
+
 #[test]
 fn white_noise_puts_the_analytic_share_of_its_power_in_each_band() {
     // The measured shares of white noise must be the φ_k² the noise threshold assumes
@@ -390,13 +396,7 @@ fn white_noise_puts_the_analytic_share_of_its_power_in_each_band() {
     // (a real image's spectrum is Hermitian), each an exponential variate: relative standard
     // error √(2 / (φ² N)). Bands estimated from fewer than 400 frequencies are not checked.
     let (w, h) = (256, 256);
-    let m = ThresholdMapper::new(
-        w,
-        h,
-        ViewingConditions::default(),
-        ThresholdParams::default(),
-    )
-    .unwrap();
+    let m = default_mapper(w, h);
     let shares = m.band_power_shares(&white_noise(w * h, 7)).unwrap();
     assert_eq!(shares.len(), m.band_frequencies_cpd().len());
     let n = (w * h) as f64;
@@ -425,17 +425,11 @@ fn blotchy_error_is_seen_at_a_lower_contrast_than_white_noise() {
     // The same noise box-filtered over 9×9 pixels (a denoised image's blotches) moves its
     // power from band 0 (33 cpd at 67 ppd, S ≈ 5 at 100 cd/m²) to bands 3–4 (4–8 cpd, near
     // the CSF's peak S ≈ 200); band 0 keeps only the box's sinc² sidelobes, ≈ 1/(9πf)² or a
-    // few per cent at f ≈ ¼–½ cycle/pixel. At equal RMS contrast it is far more visible, so its
-    // threshold RMS contrast is several times lower. Given white noise's own shares, the threshold is
-    // white noise's, bit for bit.
+    // few per cent at f ≈ ¼–½ cycle/pixel. At equal RMS contrast it is far more visible, so
+    // its threshold RMS contrast is several times lower. Given white noise's own shares, the
+    // threshold is white noise's, bit for bit.
     let (w, h) = (256, 256);
-    let m = ThresholdMapper::new(
-        w,
-        h,
-        ViewingConditions::default(),
-        ThresholdParams::default(),
-    )
-    .unwrap();
+    let m = default_mapper(w, h);
     let white = white_noise(w * h, 11);
     let blotchy = box_blur(&white, w, h, 4);
     let ws = m.band_power_shares(&white).unwrap();
