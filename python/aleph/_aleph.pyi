@@ -50,6 +50,11 @@ class RenderJob:
         ppd: pixels per degree of the viewer (``--ppd``).
         output: also write OUTPUT.exr and OUTPUT.png (``-o``; numbered for frames).
         aov: also write the false-colour OUTPUT.spp.png and OUTPUT.ratio.png (``--aov``).
+        denoise: denoise with Open Image Denoise (``--denoise``; a JobError in a build without
+            the ``denoise`` feature, which this package's build is).
+        preview: a progressive preview of a still (``--preview``): the perceptual sampler from
+            2 spp, OUTPUT.png rewritten atomically after every pass until the perceptual stop
+            or ``time``; a JobError with frames, another sampler or an animated scene.
         base_dir: where a dict scene's relative file names are resolved (default: the
             working directory).
         sampling: the job record's ``[sampling]`` table as a dict, every option of the
@@ -85,6 +90,8 @@ class RenderJob:
         ppd: Optional[float] = None,
         output: Union[None, str, os.PathLike[str]] = None,
         aov: bool = False,
+        denoise: bool = False,
+        preview: bool = False,
         base_dir: Union[None, str, os.PathLike[str]] = None,
         sampling: Optional[Dict[str, Any]] = None,
         display: Optional[Dict[str, Any]] = None,

@@ -47,6 +47,8 @@ pub struct Options<'py> {
     pub ppd: Option<f64>,
     pub output: Option<PathBuf>,
     pub aov: bool,
+    pub denoise: bool,
+    pub preview: bool,
     pub sampling: Option<Bound<'py, PyDict>>,
     pub display: Option<Bound<'py, PyDict>>,
 }
@@ -58,7 +60,7 @@ impl RenderJob {
     #[pyo3(signature = (scene, *, spp=None, time=None, sampler="perceptual".to_string(),
         resolution=None, seed=None, max_depth=None, frames=None, reuse_window=None,
         operator=None, exposure=None, fov=None, ppd=None, output=None, aov=false,
-        base_dir=None, sampling=None, display=None))]
+        denoise=false, preview=false, base_dir=None, sampling=None, display=None))]
     #[allow(clippy::too_many_arguments)]
     fn new<'py>(
         scene: &Bound<'py, PyAny>,
@@ -76,6 +78,8 @@ impl RenderJob {
         ppd: Option<f64>,
         output: Option<PathBuf>,
         aov: bool,
+        denoise: bool,
+        preview: bool,
         base_dir: Option<PathBuf>,
         sampling: Option<Bound<'py, PyDict>>,
         display: Option<Bound<'py, PyDict>>,
@@ -96,6 +100,8 @@ impl RenderJob {
             ppd,
             output,
             aov,
+            denoise,
+            preview,
             sampling,
             display,
         };
@@ -268,6 +274,8 @@ fn build(path: PathBuf, o: Options<'_>) -> PyResult<Job> {
     job.display.fov_deg = o.fov.or(job.display.fov_deg);
     job.output.stem = o.output.map(|s| strip_image_ext(&s));
     job.output.aov = o.aov;
+    job.output.denoise = o.denoise;
+    job.output.preview = o.preview;
     job.validate().map_err(crate::job_error)?;
     Ok(job)
 }

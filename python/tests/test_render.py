@@ -249,3 +249,31 @@ def test_record_tables_reach_every_option(tmp_path, cli, cornell):
     # Without the table, the same budget is refused: spp above the per-pixel cap.
     with pytest.raises(aleph.JobError, match="max_spp"):
         aleph.render(cornell, spp=5000, resolution=(8, 8))
+
+
+def test_preview_rewrites_the_png_and_ends_on_time(tmp_path, cornell):
+    """preview=True: a still from 2 spp, refined until the time budget (every pixel must
+    converge to stop sooner: about 350 spp at this size), its PNG and EXR written."""
+    r = aleph.render(
+        cornell,
+        resolution=(256, 192),
+        preview=True,
+        time=0.5,
+        sampling={"converged_fraction": 1.0},
+        output=tmp_path / "p",
+    )
+    assert (tmp_path / "p.png").is_file() and (tmp_path / "p.exr").is_file()
+    assert r.stats[0]["stop"] == "time budget spent"
+    assert r.spp.min() >= 2
+
+
+@pytest.mark.parametrize(
+    "kw,words",
+    [
+        ({"preview": True, "sampler": "uniform"}, "--preview"),
+        ({"denoise": True}, "--features denoise"),
+    ],
+)
+def test_preview_and_denoise_refusals(cornell, kw, words):
+    with pytest.raises(aleph.JobError, match=words):
+        aleph.RenderJob(cornell, **kw)
