@@ -225,6 +225,37 @@ impl DenoisedError {
     }
 }
 
+/// The luminance of an interleaved RGB pixel.
+fn y(p: &[f32]) -> f32 {
+    perception::photometry::luminance(p[0], p[1], p[2])
+}
+
+/// The half-buffers of `film` (even and odd samples) denoised apart, D(A) and D(B).
+fn denoise_halves(film: &Film, aux: &Aux) -> Result<(Vec<f32>, Vec<f32>), DenoiseError> {
+    let (w, h) = (film.width as usize, film.height as usize);
+    let a = denoise(&film.mean_rgb_even(), w, h, aux)?;
+    let b = denoise(&film.mean_rgb_odd(), w, h, aux)?;
+    Ok((a, b))
+}
+
+/// d = (Y(D(A)) − Y(D(B))) / 2 per pixel ([`DenoisedError::difference`]).
+fn half_difference(a: &[f32], b: &[f32]) -> Vec<f32> {
+    a.par_chunks_exact(3)
+        .zip(b.par_chunks_exact(3))
+        .map(|(a, b)| 0.5 * (y(a) - y(b)))
+        .collect()
+}
+
+/// The half-buffer part of [`denoised_error`] alone, [`DenoisedError::difference`], without
+/// the bias term (what the perceptual sampler steers by).
+///
+/// # Errors
+/// As [`denoise`].
+pub fn denoised_difference(film: &Film, aux: &Aux) -> Result<Vec<f32>, DenoiseError> {
+    let (a, b) = denoise_halves(film, aux)?;
+    Ok(half_difference(&a, &b))
+}
+
 /// Estimates the error of the denoised image of `film` from its half-buffers
 /// ([`DenoisedError`]).
 ///
@@ -232,14 +263,8 @@ impl DenoisedError {
 /// As [`denoise`].
 pub fn denoised_error(film: &Film, aux: &Aux) -> Result<DenoisedError, DenoiseError> {
     let (w, h) = (film.width as usize, film.height as usize);
-    let a = denoise(&film.mean_rgb_even(), w, h, aux)?;
-    let b = denoise(&film.mean_rgb_odd(), w, h, aux)?;
-    let y = |p: &[f32]| perception::photometry::luminance(p[0], p[1], p[2]);
-    let difference = a
-        .par_chunks_exact(3)
-        .zip(b.par_chunks_exact(3))
-        .map(|(a, b)| 0.5 * (y(a) - y(b)))
-        .collect();
+    let (a, b) = denoise_halves(film, aux)?;
+    let difference = half_difference(&a, &b);
     let input = film.mean_rgb();
     let residual: Vec<f32> = input
         .par_chunks_exact(3)

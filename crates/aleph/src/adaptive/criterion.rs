@@ -503,7 +503,7 @@ fn error_contrast(d: &[f32], film: &Film, scale: f32) -> Vec<f32> {
 }
 
 /// The estimated error of the denoised image in scene luminance (cd/m², Y × `scale`): the
-/// half-buffers denoised apart ([`crate::denoise::DenoisedError::difference`]), as magnitude
+/// half-buffers denoised apart ([`crate::denoise::denoised_difference`]), as magnitude
 /// and signed (whose spectrum sets the threshold). Not its bias term: with it the Cornell box
 /// (256²) stopped at 191.6 spp instead of 15.5 (JOD 9.92 against 9.83, FLIP mean 0.051
 /// against 0.071), 0.96× uniform's speed at equal JOD instead of 2.2×: the filter's bias at
@@ -513,8 +513,8 @@ fn denoised_error(
     aux: &Aux,
     scale: f32,
 ) -> Result<(Vec<f32>, Vec<f32>), AdaptiveError> {
-    let e = crate::denoise::denoised_error(film, aux)?;
-    let d: Vec<f32> = e.difference.into_par_iter().map(|x| x * scale).collect();
+    let d = crate::denoise::denoised_difference(film, aux)?;
+    let d: Vec<f32> = d.into_par_iter().map(|x| x * scale).collect();
     Ok((d.par_iter().map(|x| x.abs()).collect(), d))
 }
 

@@ -84,6 +84,7 @@ use allocate::{Allocation, allocate, fit_to_budget};
 use criterion::{Judge, Judgement, PerceptualCriterion, VarianceCriterion};
 use perception::threshold::ThresholdParams;
 use rayon::prelude::*;
+use std::cell::{Cell, RefCell};
 use std::time::{Duration, Instant};
 
 /// The adaptive decision rule: which per-pixel decision steers the samples (serialized by its
@@ -500,8 +501,8 @@ pub struct AdaptiveResult {
     pub reuse: Option<ReuseReport>,
     /// The denoised image, when [`AdaptiveSettings::denoise`] is set.
     pub denoised: Option<Denoised>,
-    /// Wall time of denoising: the auxiliary images, the judgements' denoising of the
-    /// half-buffers and the final image (included in `wall` and, for the judgements, in
+    /// Wall time of denoising: the auxiliary images, a preview's refinements and the final
+    /// image (all included in `wall`; the judgements' denoising of the half-buffers is in
     /// `decision_time`).
     pub denoise_time: Duration,
 }
@@ -585,7 +586,6 @@ impl LoopState {
         converged
     }
 
-    /// Samples taken in the region.
     /// The loop's result (without guide statistics, G-buffer, reuse or denoised image): the
     /// converged fraction of the last pass, the last judgement's maps.
     fn finish(
@@ -621,6 +621,7 @@ impl LoopState {
         }
     }
 
+    /// Samples taken in the region.
     fn region_samples(&self) -> u64 {
         self.film.pixels[self.region.clone()]
             .iter()
@@ -653,7 +654,7 @@ pub fn render_adaptive(
     progress: &(dyn Fn(&PassReport) + Sync),
     sample_progress: &(dyn Fn(u64) + Sync),
 ) -> Result<AdaptiveResult, AdaptiveError> {
-    render_adaptive_refining(scene, s, progress, sample_progress, &|_| {})
+    render_with_hooks(scene, s, progress, sample_progress, None)
 }
 
 /// The image after a pass of the adaptive loop, for a progressive preview.
@@ -662,12 +663,15 @@ pub struct Refinement<'a> {
     pub passes: usize,
     /// The sample buffers.
     pub film: &'a Film,
-    /// The denoiser's auxiliary images, when the loop denoises ([`AdaptiveSettings::denoise`]).
-    pub aux: Option<&'a Aux>,
+    /// The film's mean denoised (interleaved RGB, W·sr⁻¹·m⁻²), when the loop denoises
+    /// ([`AdaptiveSettings::denoise`]).
+    pub denoised: Option<&'a [f32]>,
 }
 
-/// [`render_adaptive`], calling `refined` with the film after every pass that added samples,
-/// before it is judged (so a preview shows each refinement as early as it can).
+/// [`render_adaptive`], calling `refined` with the film (and, when the loop denoises, its
+/// denoised image) after every pass that added samples, before it is judged, so a preview
+/// shows each refinement as early as it can. The last refinement's denoised image is the
+/// result's: the film is not denoised again.
 ///
 /// # Errors
 /// As [`render_adaptive`].
@@ -677,6 +681,16 @@ pub fn render_adaptive_refining(
     progress: &(dyn Fn(&PassReport) + Sync),
     sample_progress: &(dyn Fn(u64) + Sync),
     refined: &(dyn Fn(&Refinement) + Sync),
+) -> Result<AdaptiveResult, AdaptiveError> {
+    render_with_hooks(scene, s, progress, sample_progress, Some(refined))
+}
+
+fn render_with_hooks(
+    scene: &Scene,
+    s: &AdaptiveSettings,
+    progress: &(dyn Fn(&PassReport) + Sync),
+    sample_progress: &(dyn Fn(u64) + Sync),
+    refined: Option<&(dyn Fn(&Refinement) + Sync)>,
 ) -> Result<AdaptiveResult, AdaptiveError> {
     s.validate()?;
     let t_aux = Instant::now();
@@ -689,15 +703,28 @@ pub fn render_adaptive_refining(
         sample_progress,
         refined,
         aux: aux.as_ref(),
+        last: RefCell::new(None),
+        denoise_time: Cell::new(Duration::ZERO),
     };
+    // The loop's wall time includes the refinements' denoising; the auxiliary images and the
+    // final denoising are added to it.
     let mut r = adaptive_loop(scene, s, &hooks)?;
+    let Hooks {
+        last, denoise_time, ..
+    } = hooks;
+    r.denoise_time = aux_time + denoise_time.get();
     if let Some(aux) = aux {
         let t = Instant::now();
         let noisy = r.film.mean_rgb();
-        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-        let rgb = crate::denoise::denoise(&noisy, w, h, &aux)?;
-        r.denoise_time = aux_time + t.elapsed();
-        r.wall += r.denoise_time;
+        let rgb = match last.into_inner() {
+            Some((samples, rgb)) if samples == r.film.total_samples() => rgb,
+            _ => {
+                let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+                crate::denoise::denoise(&noisy, w, h, &aux)?
+            }
+        };
+        r.denoise_time += t.elapsed();
+        r.wall += aux_time + t.elapsed();
         r.denoised = Some(Denoised { rgb, noisy, aux });
     }
     r.gbuffer = Some(GBuffer::render(scene));
@@ -708,17 +735,35 @@ pub fn render_adaptive_refining(
 struct Hooks<'a> {
     progress: &'a (dyn Fn(&PassReport) + Sync),
     sample_progress: &'a (dyn Fn(u64) + Sync),
-    refined: &'a (dyn Fn(&Refinement) + Sync),
+    refined: Option<&'a (dyn Fn(&Refinement) + Sync)>,
     aux: Option<&'a Aux>,
+    /// The last refinement's denoised image and the film's samples when it was made.
+    last: RefCell<Option<(u64, Vec<f32>)>>,
+    /// Wall time spent denoising: the auxiliary images and the refinements.
+    denoise_time: Cell<Duration>,
 }
 
 impl Hooks<'_> {
-    fn refined(&self, passes: usize, film: &Film) {
-        (self.refined)(&Refinement {
+    /// Shows the film after pass `passes` to the refinement callback, if any, denoised first
+    /// when the loop denoises.
+    fn refined(&self, passes: usize, film: &Film) -> Result<(), AdaptiveError> {
+        let Some(refined) = self.refined else {
+            return Ok(());
+        };
+        if let Some(aux) = self.aux {
+            let t = Instant::now();
+            let (w, h) = (film.width as usize, film.height as usize);
+            let rgb = crate::denoise::denoise(&film.mean_rgb(), w, h, aux)?;
+            self.denoise_time.set(self.denoise_time.get() + t.elapsed());
+            *self.last.borrow_mut() = Some((film.total_samples(), rgb));
+        }
+        let last = self.last.borrow();
+        refined(&Refinement {
             passes,
             film,
-            aux: self.aux,
+            denoised: last.as_ref().map(|(_, rgb)| rgb.as_slice()),
         });
+        Ok(())
     }
 }
 
@@ -740,7 +785,7 @@ fn adaptive_loop(
         // The uniform sampler, or a budget too small to steer: one uniform pass of the whole
         // budget over the rows this render owns.
         let mut r = render_uniform_budget(scene, s, st, progress, sample_progress, start);
-        hooks.refined(1, &r.film);
+        hooks.refined(1, &r.film)?;
         r.velocity = velocity;
         return Ok(r);
     }
@@ -755,7 +800,7 @@ fn adaptive_loop(
     let pass = render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
     st.unreported_render = pass.wall;
     st.stats += pass;
-    hooks.refined(1, &st.film);
+    hooks.refined(1, &st.film)?;
     if budget_total.is_some_and(|b| st.region_samples() as f64 >= b as f64 - 0.002 * n_px as f64) {
         return Ok(unjudged(st, s, progress, velocity, start));
     }
@@ -788,10 +833,12 @@ fn adaptive_loop(
         let done = converged >= s.converged_fraction;
         let mut alloc = plan_pass(&st, &ratio, noise.as_deref(), floor, remaining, done, cap);
         if alloc.total() == 0 {
-            break (
-                judgement,
-                [StopReason::MaxSpp, StopReason::Converged][done as usize],
-            );
+            let reason = if done {
+                StopReason::Converged
+            } else {
+                StopReason::MaxSpp
+            };
+            break (judgement, reason);
         }
         if let Some(rem) = remaining {
             fit_to_budget(&mut alloc, &st.film, &ratio, rem, cap);
@@ -814,7 +861,7 @@ fn adaptive_loop(
         rate = pass.samples as f64 / pass.wall.as_secs_f64().max(1e-9);
         st.unreported_render = pass.wall;
         st.stats += pass;
-        hooks.refined(st.passes.len() + 1, &st.film);
+        hooks.refined(st.passes.len() + 1, &st.film)?;
     };
     let mut r = st.finish(s, stop, Some(judgement), velocity, start);
     r.guide_stats = criterion.guide_stats();

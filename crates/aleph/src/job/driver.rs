@@ -3,6 +3,7 @@
 //! tiles. Progress and each frame's result reach an [`Observer`]; the CLI's progress bars and
 //! summary lines are one.
 
+use super::observer::{FrameDone, Observer, Refined};
 use super::{JobError, RenderJob, Split, content_hash};
 use crate::adaptive::{
     AdaptiveResult, AdaptiveSettings, PassReport, Refinement, render_adaptive,
@@ -17,59 +18,6 @@ use crate::sequence::Sequence;
 use perception::tmo::pattanaik00::AdaptationState;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-
-/// What a render reports while it runs. Every method has an empty default; `()` observes
-/// nothing. Called from the rendering thread (never from rayon's workers, except
-/// [`Observer::samples`], hence `Sync`).
-pub trait Observer: Sync {
-    /// The scene was loaded in `load` (by [`run`]; [`run_on`] is handed a loaded scene).
-    fn loaded(&self, _scene: &Scene, _load: Duration) {}
-    /// A sequence of frames `first..=last` starts (after its adaptation pre-passes).
-    fn sequence_started(&self, _first: i64, _last: i64) {}
-    /// A pass of the adaptive loop ended (`frame`: the frame number in a sequence).
-    fn pass(&self, _frame: Option<i64>, _report: &PassReport) {}
-    /// Samples were taken (called from worker threads, often: with 0 when a row of pixels
-    /// starts, with its samples when it ends; see [`crate::render::render_counts`] for
-    /// stopping a render from here).
-    fn samples(&self, _n: u64) {}
-    /// A frame (or the still) was rendered and, with an output stem, written.
-    fn frame_done(&self, _done: &FrameDone<'_>) {}
-    /// A preview's refinement was written ([`super::OutputSpec::preview`]).
-    fn refined(&self, _refinement: &Refined<'_>) {}
-}
-
-/// One refinement of a preview, as [`Observer::refined`] sees it.
-pub struct Refined<'a> {
-    /// Passes rendered so far (1 after the first).
-    pub passes: usize,
-    /// Mean samples per pixel of the image.
-    pub mean_spp: f64,
-    /// Whether it was denoised.
-    pub denoised: bool,
-    /// The PNG written.
-    pub path: &'a Path,
-    /// Wall time since the frame's render began.
-    pub elapsed: Duration,
-}
-
-impl Observer for () {}
-
-/// One rendered frame, as [`Observer::frame_done`] sees it.
-pub struct FrameDone<'a> {
-    /// The scene at the frame.
-    pub scene: &'a Scene,
-    /// The settings it was rendered with.
-    pub settings: &'a AdaptiveSettings,
-    /// The film, maps and statistics.
-    pub result: &'a AdaptiveResult,
-    /// The frame's output stem (`None` when the job writes no files).
-    pub stem: Option<&'a Path>,
-    /// Words for the summary: the operator or exposure of the PNG.
-    pub look: &'a str,
-    /// How the display image (the PNG) is made from the radiance
-    /// ([`crate::deliver::display_image`]).
-    pub display: Look,
-}
 
 /// What a job did, beyond its frames.
 #[derive(Clone, Debug)]
@@ -244,7 +192,7 @@ fn preview(
             Ok(()) => observer.refined(&Refined {
                 passes: r.passes,
                 mean_spp: r.film.total_samples() as f64 / r.film.len() as f64,
-                denoised: r.aux.is_some(),
+                denoised: r.denoised.is_some(),
                 path: &png,
                 elapsed: start.elapsed(),
             }),
@@ -264,11 +212,15 @@ fn preview(
 /// Writes one refinement's display image to `png` (atomically).
 fn write_refinement(scene: &Scene, r: &Refinement, look: Look, png: &Path) -> Result<(), JobError> {
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let mut rgb = r.film.mean_rgb();
-    if let Some(aux) = r.aux {
-        rgb = crate::denoise::denoise(&rgb, w as usize, h as usize, aux)?;
-    }
-    let (display, _) = crate::deliver::display_image(&rgb, w as usize, h as usize, look)?;
+    let raw;
+    let rgb = match r.denoised {
+        Some(rgb) => rgb,
+        None => {
+            raw = r.film.mean_rgb();
+            &raw
+        }
+    };
+    let (display, _) = crate::deliver::display_image(rgb, w as usize, h as usize, look)?;
     let mut out = crate::output::AtomicOutputs::new();
     out.stage(png, |wr| crate::output::write_png(wr, png, w, h, &display))?;
     out.commit()?;

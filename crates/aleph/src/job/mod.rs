@@ -14,11 +14,11 @@
 
 mod driver;
 mod merge;
+mod observer;
 
-pub use driver::{
-    FrameDone, JobReport, Observer, PartReport, Refined, SequenceReport, TileReport, run, run_on,
-};
+pub use driver::{JobReport, PartReport, SequenceReport, TileReport, run, run_on};
 pub use merge::{MergeReport, merge};
+pub use observer::{FrameDone, Observer, Refined};
 
 use crate::adaptive::{
     AdaptiveError, AdaptiveSettings, Criterion, ErrorEstimate, PerceptualSettings, Visibility,
