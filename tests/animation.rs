@@ -64,7 +64,14 @@ fn motion_blur_of_a_moving_edge_follows_the_analytic_ramp() {
     };
     let mut film = aleph::film::Film::new(w, w);
     let counts: Vec<u32> = (0..w * w).map(|i| if i < w { spp } else { 0 }).collect();
-    render_counts(&scene, &integrator, &mut film, &counts, &|_| {});
+    render_counts(
+        &scene,
+        &integrator,
+        &mut film,
+        &counts,
+        aleph::sampler::SampleStreams::Halves,
+        &|_| {},
+    );
     // Expected per pixel: the lit fraction averaged over the pixel's footprint (box filter),
     // by a fine quadrature independent of the renderer. Image x at raster u: 2u/w − 1 (square
     // image, tan of the half field of view is 1).

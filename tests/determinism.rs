@@ -4,6 +4,7 @@ use crate::util::*;
 use aleph::film::Film;
 use aleph::integrator::{Integrator, Strategy};
 use aleph::render::render_counts;
+use aleph::sampler::SampleStreams;
 use aleph::scene::{Scene, SceneDescription};
 
 fn small_cornell() -> Scene {
@@ -37,16 +38,27 @@ fn adding_samples_later_continues_each_pixel_stream() {
         max_depth: scene.settings.max_depth,
         strategy: Strategy::Mis,
     };
+    // The uniform render (one sequence per pixel) equals 12 samples added in one pass.
     let once = render_on(2, &scene, 12);
-    // 4 + 8 samples in two passes, with an uneven split across pixels in between.
-    let mut film = Film::new(24, 20);
-    let n = film.len();
-    render_counts(&scene, &integ, &mut film, &vec![4; n], &|_| {});
-    let uneven: Vec<u32> = (0..n).map(|i| (i % 3) as u32).collect();
-    render_counts(&scene, &integ, &mut film, &uneven, &|_| {});
-    let rest: Vec<u32> = uneven.iter().map(|&u| 8 - u).collect();
-    render_counts(&scene, &integ, &mut film, &rest, &|_| {});
-    assert!(film == once, "multi-pass film differs from single pass");
+    for streams in [SampleStreams::Whole, SampleStreams::Halves] {
+        let mut single = Film::new(24, 20);
+        let n = single.len();
+        render_counts(&scene, &integ, &mut single, &vec![12; n], streams, &|_| {});
+        if streams == SampleStreams::Whole {
+            assert!(single == once, "render_counts differs from render_uniform");
+        }
+        // 4 + 8 samples in two passes, with an uneven split across pixels in between.
+        let mut film = Film::new(24, 20);
+        render_counts(&scene, &integ, &mut film, &vec![4; n], streams, &|_| {});
+        let uneven: Vec<u32> = (0..n).map(|i| (i % 3) as u32).collect();
+        render_counts(&scene, &integ, &mut film, &uneven, streams, &|_| {});
+        let rest: Vec<u32> = uneven.iter().map(|&u| 8 - u).collect();
+        render_counts(&scene, &integ, &mut film, &rest, streams, &|_| {});
+        assert!(
+            film == single,
+            "{streams:?}: multi-pass film differs from single pass"
+        );
+    }
 }
 
 #[test]

@@ -10,8 +10,9 @@ use aleph::film::Film;
 use aleph::imaging::false_colour;
 use aleph::integrator::Strategy;
 use aleph::output::{AtomicOutputs, ChannelData, OutputError, write_exr, write_png};
-use aleph::render::{pixel_costs, render_uniform};
+use aleph::render::{pixel_costs, render_uniform_streams};
 use aleph::reuse::{FrameSamples, ReuseWindow};
+use aleph::sampler::SampleStreams;
 use aleph::scene::{Scene, SceneDescription};
 use aleph::sequence::Sequence;
 use perception::tmo::Operator;
@@ -223,7 +224,14 @@ fn reference_for(
     }
     log(&format!("rendering the reference: {w}×{h} at {spp} spp …"));
     let t = Instant::now();
-    let (film, _) = render_uniform(ref_scene, Strategy::Mis, spp, &|_| {});
+    // Independent half-buffers: the reference's noise floor is one half against the other.
+    let (film, _) = render_uniform_streams(
+        ref_scene,
+        Strategy::Mis,
+        spp,
+        SampleStreams::Halves,
+        &|_| {},
+    );
     log(&format!(
         "reference rendered in {:.1} s",
         t.elapsed().as_secs_f64()

@@ -35,6 +35,7 @@ use crate::film::{ExactRgb, ExactSum, Film, PixelStats};
 use crate::integrator::{Integrator, Strategy};
 use crate::output::{AtomicOutputs, ChannelData, OutputError, write_exr};
 use crate::render::{RenderStats, render_counts};
+use crate::sampler::SampleStreams;
 use crate::scene::Scene;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -157,7 +158,14 @@ pub fn render_part(
     };
     let mut film = Film::starting_at(scene.camera.width, scene.camera.height, first);
     let counts = vec![end - first; film.len()];
-    let stats = render_counts(scene, &integrator, &mut film, &counts, progress);
+    let stats = render_counts(
+        scene,
+        &integrator,
+        &mut film,
+        &counts,
+        SampleStreams::Whole,
+        progress,
+    );
     let part = PartialFilm {
         film,
         split: Split::Samples { first, end },

@@ -3,7 +3,7 @@
 use crate::film::{Film, PixelStats};
 use crate::integrator::{Integrator, Strategy};
 use crate::rng::Rng;
-use crate::sampler::{Sampler, SobolSampler};
+use crate::sampler::{SampleStreams, Sampler, SobolSampler};
 use crate::scene::SampleGenerator;
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -42,6 +42,7 @@ fn sample_pixel(
     seed: u64,
     x: u32,
     y: u32,
+    streams: SampleStreams,
     px: &mut PixelStats,
     count: u32,
     rays: &mut u64,
@@ -53,7 +54,10 @@ fn sample_pixel(
         let time = scene.sample_time(seed, index, n);
         let r = match scene.settings.sample_generator {
             SampleGenerator::Sobol => {
-                let rng = SobolSampler::for_sample(seed, index, n);
+                let rng = match streams {
+                    SampleStreams::Halves => SobolSampler::for_sample(seed, index, n),
+                    SampleStreams::Whole => SobolSampler::for_sample_whole(seed, index, n),
+                };
                 trace(scene, integrator, seed, (x, y), n, time, rng)
             }
             SampleGenerator::Independent => {
@@ -88,7 +92,8 @@ fn trace(
     integrator.radiance(scene, ray, &mut rng)
 }
 
-/// Adds `counts[i]` samples to pixel i of `film` (row-major), in parallel over rows. The result
+/// Adds `counts[i]` samples to pixel i of `film` (row-major), drawn as `streams` says, in
+/// parallel over rows. The result
 /// is bit-identical for any thread count. `progress` is called (from worker threads) with 0
 /// when a row starts and with the number of samples the row took when it ends; a caller that
 /// must stop the render may unwind from it (`std::panic::resume_unwind`, as the Python
@@ -102,6 +107,7 @@ pub fn render_counts(
     integrator: &Integrator,
     film: &mut Film,
     counts: &[u32],
+    streams: SampleStreams,
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderStats {
     render_counts_seeded(
@@ -110,6 +116,7 @@ pub fn render_counts(
         film,
         counts,
         scene.frame_seed(),
+        streams,
         progress,
     )
 }
@@ -122,6 +129,7 @@ pub fn render_counts_seeded(
     film: &mut Film,
     counts: &[u32],
     seed: u64,
+    streams: SampleStreams,
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderStats {
     assert_eq!(counts.len(), film.len());
@@ -142,7 +150,7 @@ pub fn render_counts_seeded(
             let (mut r, mut nf, mut s) = (0u64, 0u64, 0u64);
             for (x, (px, &c)) in row.iter_mut().zip(row_counts).enumerate() {
                 sample_pixel(
-                    scene, integrator, seed, x as u32, y as u32, px, c, &mut r, &mut nf,
+                    scene, integrator, seed, x as u32, y as u32, streams, px, c, &mut r, &mut nf,
                 );
                 s += c as u64;
             }
@@ -191,6 +199,7 @@ pub fn pixel_costs(scene: &Scene, strategy: Strategy, spp: u32) -> Vec<f32> {
                         seed,
                         x as u32,
                         y as u32,
+                        SampleStreams::Halves,
                         px,
                         count,
                         &mut rays,
@@ -206,11 +215,24 @@ pub fn pixel_costs(scene: &Scene, strategy: Strategy, spp: u32) -> Vec<f32> {
 /// Passes over the image of [`pixel_costs`].
 pub const COST_PASSES: u32 = 4;
 
-/// Renders `spp` samples in every pixel into a new film (one pass, progress reported per row).
+/// Renders `spp` samples in every pixel into a new film (one pass, progress reported per row;
+/// one sequence per pixel, [`SampleStreams::Whole`], as the uniform sampler of a job).
 pub fn render_uniform(
     scene: &Scene,
     strategy: Strategy,
     spp: u32,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (Film, RenderStats) {
+    render_uniform_streams(scene, strategy, spp, SampleStreams::Whole, progress)
+}
+
+/// As [`render_uniform`], the samples drawn as `streams` says ([`SampleStreams::Halves`] for a
+/// reference whose half-buffers must be independent, e.g. to measure its own noise floor).
+pub fn render_uniform_streams(
+    scene: &Scene,
+    strategy: Strategy,
+    spp: u32,
+    streams: SampleStreams,
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Film, RenderStats) {
     let integrator = Integrator {
@@ -219,7 +241,7 @@ pub fn render_uniform(
     };
     let mut film = Film::new(scene.camera.width, scene.camera.height);
     let counts = vec![spp; film.len()];
-    let stats = render_counts(scene, &integrator, &mut film, &counts, progress);
+    let stats = render_counts(scene, &integrator, &mut film, &counts, streams, progress);
     (film, stats)
 }
 

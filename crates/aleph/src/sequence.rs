@@ -20,6 +20,7 @@ use crate::error::SceneResult;
 use crate::film::Film;
 use crate::integrator::{Integrator, Strategy};
 use crate::render::render_counts_seeded;
+use crate::sampler::SampleStreams;
 use crate::scene::Scene;
 use perception::tmo::pattanaik00::AdaptationState;
 
@@ -53,7 +54,15 @@ pub fn adaptation_stimulus(scene: &Scene) -> (f64, f64) {
     };
     let mut film = Film::new(w as u32, h as u32);
     let seed = scene.settings.seed ^ PREPASS_SEED_XOR;
-    render_counts_seeded(scene, &integrator, &mut film, &counts, seed, &|_| {});
+    render_counts_seeded(
+        scene,
+        &integrator,
+        &mut film,
+        &counts,
+        seed,
+        SampleStreams::Halves,
+        &|_| {},
+    );
     let k = scene.settings.luminance_scale as f64;
     let block = PREPASS_STRIDE * PREPASS_POOL;
     let (bw, bh) = (w.div_ceil(block), h.div_ceil(block));

@@ -78,6 +78,7 @@ use crate::film::Film;
 use crate::gbuffer::GBuffer;
 use crate::integrator::{Integrator, Strategy};
 use crate::render::{RenderStats, render_counts};
+use crate::sampler::SampleStreams;
 use crate::scene::Scene;
 use crate::velocity::{VelocityMap, render_velocity};
 use allocate::{Allocation, allocate, fit_to_budget};
@@ -797,7 +798,14 @@ fn adaptive_loop(
         None => s.min_spp,
     };
     let first = vec![min_spp; st.film.len()];
-    let pass = render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
+    let pass = render_counts(
+        scene,
+        &integrator,
+        &mut st.film,
+        &first,
+        SampleStreams::Halves,
+        sample_progress,
+    );
     st.unreported_render = pass.wall;
     st.stats += pass;
     hooks.refined(1, &st.film)?;
@@ -856,6 +864,7 @@ fn adaptive_loop(
             &integrator,
             &mut st.film,
             &alloc.want,
+            SampleStreams::Halves,
             sample_progress,
         );
         rate = pass.samples as f64 / pass.wall.as_secs_f64().max(1e-9);
@@ -1023,7 +1032,8 @@ fn stop_before_pass(
 }
 
 /// The uniform sampler (and an adaptive one under its `steer_from_spp`): one pass of the whole
-/// budget over the render's rows (bit-identical to a plain render of that spp).
+/// budget over the render's rows (bit-identical to a plain render of that spp), one Sobol'
+/// sequence per pixel ([`SampleStreams::Whole`]: nothing steers by its half-buffers).
 fn render_uniform_budget(
     scene: &Scene,
     s: &AdaptiveSettings,
@@ -1039,7 +1049,14 @@ fn render_uniform_budget(
     let spp = s.uniform_total_spp();
     let mut counts = vec![0; st.film.len()];
     counts[st.region.clone()].fill(spp);
-    st.stats += render_counts(scene, &integrator, &mut st.film, &counts, sample_progress);
+    st.stats += render_counts(
+        scene,
+        &integrator,
+        &mut st.film,
+        &counts,
+        SampleStreams::Whole,
+        sample_progress,
+    );
     let report = PassReport {
         pass: 0,
         mean_spp: spp as f64,

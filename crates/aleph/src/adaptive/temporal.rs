@@ -27,6 +27,7 @@ use crate::gbuffer::GBuffer;
 use crate::integrator::{Integrator, Strategy};
 use crate::render::render_counts;
 use crate::reuse::{Reprojected, ReuseWindow, Tested};
+use crate::sampler::SampleStreams;
 use crate::scene::Scene;
 use crate::velocity::render_velocity;
 use rayon::prelude::*;
@@ -82,7 +83,14 @@ pub fn render_reusing(
     let n_px = st.film.len();
     let budget_total = s.budget_spp.map(|b| (b * n_px as f64).round() as u64);
     let first = vec![first_pass_spp(s.budget_spp); n_px];
-    let pass = render_counts(scene, &integrator, &mut st.film, &first, sample_progress);
+    let pass = render_counts(
+        scene,
+        &integrator,
+        &mut st.film,
+        &first,
+        SampleStreams::Halves,
+        sample_progress,
+    );
     st.unreported_render = pass.wall;
     st.stats += pass;
     let t_test = Instant::now();
@@ -142,6 +150,7 @@ pub fn render_reusing(
             &integrator,
             &mut st.film,
             &alloc.want,
+            SampleStreams::Halves,
             sample_progress,
         );
         st.unreported_render = pass.wall;

@@ -7,25 +7,36 @@
 //! index shuffled rather than Morton-ordered, so samples can be added to any pixel at any time
 //! and every power-of-two prefix of a pixel's samples stays stratified).
 //!
-//! **Half-buffers stay independent:** the even and odd samples of a pixel (half-buffers A and B
-//! of the film) are two separate sequences with independent scrambles: sample n is point ⌊n/2⌋
-//! of stream n mod 2. Each half is an unbiased randomized-QMC estimate on its own, and their
-//! difference still estimates the error (a single interleaved sequence would make the two
-//! halves complementary strata, and their difference would call a pixel converged too early).
+//! **Two layouts of a pixel's samples** ([`super::SampleStreams`]). For the adaptive samplers
+//! the half-buffers stay independent: the even and odd samples of a pixel (half-buffers A and
+//! B of the film) are two separate sequences with independent scrambles, sample n being point
+//! ⌊n/2⌋ of stream n mod 2 ([`SobolSampler::for_sample`]). Each half is an unbiased
+//! randomized-QMC estimate on its own, and their difference estimates the error of their mean
+//! without bias, which the samplers steer and stop by. Uniform renders, which steer by nothing,
+//! draw all of a pixel's samples from one sequence ([`SobolSampler::for_sample_whole`]), so
+//! every power-of-two prefix is one net.
 //!
 //! Dimensions past [`QMC_DIMENSIONS`] come from a PCG32 stream keyed the same way, as deep
 //! bounces gain little from stratification: on the Cornell box (256², depth 8, Russian
 //! roulette from bounce 5, 3 seeds, relMSE against an 8192-spp Mitsuba reference), Sobol' for
 //! every dimension gave 1.01–1.03× lower relMSE at 16 and 64 spp for 1.04× the CPU time per
-//! sample (paired runs): no gain in time to equal error, so it was not adopted.
+//! sample (paired runs): no gain in time to equal error, so it was not adopted. Re-measured
+//! with one sequence per pixel (2026-11-25): 1.01× / 1.03× lower relMSE (0.00688 / 0.00137) for
+//! 1.07× the CPU time (median of 5 paired whole processes at 64 spp, 1.00–1.12×): still none.
 //!
-//! **What the independent half-buffers cost.** One sequence of 2n points per pixel instead of
-//! two independent sequences of n points would give 1.12× lower relMSE at 16 and at 64 spp on
-//! the same box (same reference, 3 seeds, every dimension Sobol'): the union of two
-//! independently scrambled nets is not a net. It is the price of an error estimate the
-//! adaptive sampler can trust: the even and odd samples of one scrambled sequence lie in
-//! complementary halves of every dimension pair's square, so their difference measures how the
-//! integrand differs between those halves, which does not shrink with the sample count.
+//! **What the independent half-buffers cost.** The union of two independently scrambled nets
+//! is not a net: on the Cornell box (256², depth 8, 3 seeds, relMSE against an 8192-spp
+//! Mitsuba reference) the independent halves give 0.00782 / 0.00158 at 16 / 64 spp, one
+//! sequence 0.00698 / 0.00141 (1.12× lower; PCG32 0.01102 / 0.00278). It is the price of an
+//! error estimate the adaptive samplers can trust, and only they pay it. The even and odd
+//! samples of one sequence lie in complementary halves of every dimension pair's square (a
+//! pair's shuffled indices differ in their lowest bit, which Sobol' turns into the top bit of
+//! both coordinates), so their difference would measure how the integrand differs between those
+//! halves, which does not shrink with the sample count; in the one-sequence layout a hash
+//! decides which point of each pair goes to which half-buffer, so the halves are random halves
+//! of the net and their difference measures the Monte Carlo error σ²/N: conservative (the
+//! tests measure 1.02 σ²/N and 31× the net's own error on a smooth integrand), which is why
+//! the samplers that steer keep the independent layout.
 //!
 //! **Against OpenQMC** (`openqmc-rs` 0.2.4, a port of the Academy Software Foundation's
 //! library, tried as the generator: one 4-D domain per dimension pair, every dimension, the
@@ -35,9 +46,10 @@
 //!
 //! **The renderer's default** (`[render] sample_generator = "sobol"`; `"independent"` gives
 //! PCG32). Measured on the Cornell box at 256², depth 8, against an 8192-spp Mitsuba reference
-//! (benches/peer/vs_mitsuba.py): relMSE 1.28× lower at 16 spp and 1.48× lower at 64 spp than
-//! PCG32, for 1.20× the CPU time per sample (median of 6 paired runs), so 1.07× (16 spp) to
-//! 1.23× (64 spp) less time to equal relMSE. Dimension 1 comes from byte tables and single dimensions from a 1-D sequence (two
+//! (benches/peer/vs_mitsuba.py), Russian roulette from bounce 3 then: relMSE 1.28× lower at
+//! 16 spp and 1.48× lower at 64 spp than PCG32 with independent halves, for 1.20× the CPU time
+//! per sample (median of 6 paired runs), so 1.07× (16 spp) to 1.23× (64 spp) less time to equal
+//! relMSE; with roulette from bounce 5 and one sequence, 1.58× / 1.97× lower. Dimension 1 comes from byte tables and single dimensions from a 1-D sequence (two
 //! scrambles instead of three); before that it cost 1.34× and did not pay.
 //! A single render's per-pixel error is not σ/√n under randomised QMC: the tests that z-test
 //! pixels ask for independent samples, and the default is tested over independent seeds.
@@ -172,13 +184,42 @@ pub struct SobolSampler {
 }
 
 impl SobolSampler {
-    /// The sampler of sample `sample_index` of pixel `pixel_index` under `seed`.
+    /// The sampler of sample `sample_index` of pixel `pixel_index` under `seed`, its even and
+    /// odd samples from two independent sequences ([`super::SampleStreams::Halves`]).
     pub fn for_sample(seed: u64, pixel_index: u64, sample_index: u64) -> Self {
         let half = sample_index & 1;
         let stream = mix64(seed ^ mix64(pixel_index.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ half));
+        SobolSampler::new(
+            stream,
+            (sample_index >> 1) as u32,
+            seed,
+            pixel_index,
+            sample_index,
+        )
+    }
+
+    /// The sampler of sample `sample_index` of pixel `pixel_index` under `seed`, all of the
+    /// pixel's samples from one sequence ([`super::SampleStreams::Whole`]): samples 2k and
+    /// 2k + 1 are points 2k and 2k + 1 of the sequence in an order a hash of (stream, k)
+    /// chooses, so the pair, and every power-of-two prefix, is unchanged, but which half-buffer
+    /// receives which of its two points is random.
+    pub fn for_sample_whole(seed: u64, pixel_index: u64, sample_index: u64) -> Self {
+        let stream = mix64(seed ^ mix64(pixel_index.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ 2));
+        let swap = mix64(stream ^ (sample_index >> 1)) & 1;
+        SobolSampler::new(
+            stream,
+            (sample_index ^ swap) as u32,
+            seed,
+            pixel_index,
+            sample_index,
+        )
+    }
+
+    #[inline]
+    fn new(stream: u64, index: u32, seed: u64, pixel_index: u64, sample_index: u64) -> Self {
         SobolSampler {
             stream,
-            index: (sample_index >> 1) as u32,
+            index,
             dim: 0,
             key: (seed ^ 0x243F_6A88_85A3_08D3, pixel_index, sample_index),
             fallback: None,
@@ -383,5 +424,141 @@ mod table_tests {
             x = x.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
             assert_eq!(sobol_dim1(x), sobol_dim1_bits(x), "{x}");
         }
+    }
+}
+
+#[cfg(test)]
+mod whole_tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    /// sin(πx)·sin(πy): smooth, mean 4/π², variance 1/4 − 16/π⁴.
+    fn g(p: Vec2) -> f64 {
+        (PI * p.x as f64).sin() * (PI * p.y as f64).sin()
+    }
+
+    /// g of the camera's dimensions plus g of the first light sample's, drawn as the
+    /// integrator draws them (dimension 2, the light choice, passed over): an additive smooth
+    /// integrand whose two terms each are a 2-D net in a sampler that stratifies.
+    fn additive(mut s: SobolSampler) -> f64 {
+        let a = s.uniform2();
+        s.skip();
+        g(a) + g(s.uniform2())
+    }
+
+    const MEAN: f64 = 2.0 * 4.0 / (PI * PI);
+    const VARIANCE: f64 = 2.0 * (0.25 - 16.0 / (PI * PI * PI * PI));
+
+    /// (A, B): the means of the even and odd samples `0..n` of `pixel` drawn by `make`.
+    fn halves(make: fn(u64, u64, u64) -> SobolSampler, pixel: u64, n: u64) -> (f64, f64) {
+        let (mut a, mut b) = (0.0, 0.0);
+        for i in 0..n {
+            let v = additive(make(9, pixel, i));
+            if i % 2 == 0 { a += v } else { b += v }
+        }
+        (a / (n / 2) as f64, b / (n / 2) as f64)
+    }
+
+    #[test]
+    fn every_power_of_two_prefix_of_a_whole_pixel_is_a_net() {
+        // Camera dimensions (0, 1) and the first light sample's (3, 4): one sample in each
+        // elementary interval of every shape, for the first 2^m samples.
+        for pixel in [0u64, 5, 77_777] {
+            for m in [1u32, 3, 5, 7] {
+                let n = 1u64 << m;
+                for a in 0..=m {
+                    let (bx, by) = (1usize << a, 1usize << (m - a));
+                    let (mut cam, mut light) = (vec![0; 1 << m], vec![0; 1 << m]);
+                    for i in 0..n {
+                        let mut s = SobolSampler::for_sample_whole(4, pixel, i);
+                        let c = s.uniform2();
+                        s.skip();
+                        let l = s.uniform2();
+                        for (p, seen) in [(c, &mut cam), (l, &mut light)] {
+                            let x = ((p.x * bx as f32) as usize).min(bx - 1);
+                            let y = ((p.y * by as f32) as usize).min(by - 1);
+                            seen[y * bx + x] += 1;
+                        }
+                    }
+                    assert!(
+                        cam.iter().all(|&c| c == 1),
+                        "camera: pixel {pixel}, m {m}, a {a}"
+                    );
+                    assert!(
+                        light.iter().all(|&c| c == 1),
+                        "light: pixel {pixel}, m {m}, a {a}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_whole_pixel_has_the_error_of_one_net_not_of_two_half_nets() {
+        // For a smooth integrand the variance of an Owen-scrambled net of N points falls as
+        // N⁻³, so the mean of two independent nets of N/2 has 2 · ¼ · 8 = 4 times the variance
+        // of one net of N: twice the RMS error (measured: 1.79×). Over 2000 pixels the RMS is
+        // known to about 2 %; 1.5 separates the two layouts by far more than that. Both are far
+        // below Monte Carlo's σ/√N (one net: 0.10 of it).
+        let (pixels, n) = (2000u64, 64u64);
+        let rms = |make: fn(u64, u64, u64) -> SobolSampler| {
+            let se: f64 = (0..pixels)
+                .map(|p| {
+                    let (a, b) = halves(make, p, n);
+                    (0.5 * (a + b) - MEAN).powi(2)
+                })
+                .sum();
+            (se / pixels as f64).sqrt()
+        };
+        let (whole, split) = (
+            rms(SobolSampler::for_sample_whole),
+            rms(SobolSampler::for_sample),
+        );
+        let mc = (VARIANCE / n as f64).sqrt();
+        assert!(split > 1.5 * whole, "whole {whole:.2e}, halves {split:.2e}");
+        assert!(
+            whole < mc / 4.0,
+            "whole {whole:.2e} against Monte Carlo's {mc:.2e}"
+        );
+    }
+
+    #[test]
+    fn whole_half_buffers_are_unbiased_and_their_difference_is_conservative() {
+        // Each half-buffer is a random half of the net: unbiased, so (A − B)/2 has mean 0
+        // (within 4 standard errors over the pixels), and E[((A − B)/2)²] is at least the
+        // Monte Carlo variance σ²/N of the mean (siblings of a pair lie in opposite halves of
+        // every dimension pair's square, which can only add to their difference), far above
+        // the net's own error: a safe error estimate for renders that do not steer by it
+        // (measured: 1.02 σ²/N, 31 times the mean squared error of the net).
+        let (pixels, n) = (4000u64, 32u64);
+        let (mut d, mut d2, mut err2) = (0.0f64, 0.0f64, 0.0f64);
+        let mut d2s = Vec::new();
+        for p in 0..pixels {
+            let (a, b) = halves(SobolSampler::for_sample_whole, p, n);
+            let h = 0.5 * (a - b);
+            d += h;
+            d2 += h * h;
+            d2s.push(h * h);
+            err2 += (0.5 * (a + b) - MEAN).powi(2);
+        }
+        let k = pixels as f64;
+        let (mean_d, mean_d2) = (d / k, d2 / k);
+        let se_d = (mean_d2 / k).sqrt();
+        assert!(
+            mean_d.abs() < 4.0 * se_d,
+            "mean (A − B)/2 = {mean_d:.2e} ± {se_d:.2e}"
+        );
+        let var_d2 = d2s.iter().map(|x| (x - mean_d2).powi(2)).sum::<f64>() / (k - 1.0);
+        let se_d2 = (var_d2 / k).sqrt();
+        let mc = VARIANCE / n as f64;
+        assert!(
+            mean_d2 + 4.0 * se_d2 > mc,
+            "E[((A − B)/2)²] = {mean_d2:.3e} ± {se_d2:.1e}, σ²/N = {mc:.3e}"
+        );
+        assert!(
+            mean_d2 > 10.0 * err2 / k,
+            "estimate {mean_d2:.2e}, true {:.2e}",
+            err2 / k
+        );
     }
 }
