@@ -94,7 +94,7 @@ pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> (Ve
     let mut weight = Vec3::ONE;
     for _ in 0..8 {
         let Some(hit) = scene.geometry.intersect(&ray) else {
-            let sky = capped(scene.lights.infinite_radiance(ray.d, |_| 1.0));
+            let sky = capped(scene.lights.infinite_radiance(ray.d, Vec3::ZERO, |_| 1.0));
             return (weight * sky, Vec3::ZERO);
         };
         let facing = if ray.d.dot(hit.ns) > 0.0 {
@@ -221,13 +221,21 @@ struct Vertex<'a> {
 
 impl Integrator {
     /// Radiance from the lights at infinity along `d`, for a ray that left the scene after a
-    /// vertex whose BSDF sample had density `prev_pdf` (or was a delta bounce, or the camera).
+    /// vertex of shading normal `prev_n` whose BSDF sample had density `prev_pdf` (or was a
+    /// delta bounce, or the camera).
     #[inline]
-    fn escaped(&self, scene: &Scene, d: Vec3, prev_delta: bool, prev_pdf: f32) -> Vec3 {
+    fn escaped(
+        &self,
+        scene: &Scene,
+        d: Vec3,
+        prev_delta: bool,
+        prev_pdf: f32,
+        prev_n: Vec3,
+    ) -> Vec3 {
         if !scene.lights.has_infinite() {
             return Vec3::ZERO;
         }
-        scene.lights.infinite_radiance(d, |light_pdf| {
+        scene.lights.infinite_radiance(d, prev_n, |light_pdf| {
             if prev_delta {
                 1.0
             } else {
@@ -328,7 +336,7 @@ impl Integrator {
         loop {
             rays += 1;
             let Some(hit) = geo.intersect(&ray) else {
-                l += beta * self.escaped(scene, ray.d, prev_delta, prev_pdf);
+                l += beta * self.escaped(scene, ray.d, prev_delta, prev_pdf, prev_n);
                 break;
             };
             let tri = hit.tri as usize;

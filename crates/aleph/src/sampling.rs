@@ -195,6 +195,12 @@ impl Distribution1D {
         (i, self.pmf(i))
     }
 
+    /// The cumulative probability of the items before item `i` (`i` ≤ the number of items).
+    #[inline]
+    pub fn cdf(&self, i: usize) -> f32 {
+        self.cdf[i]
+    }
+
     /// Samples an item for `u` ∈ [0, 1) and returns it, its probability, and `u` remapped to
     /// [0, 1) within the item's share of the CDF (so one number can drive a further choice).
     #[inline]

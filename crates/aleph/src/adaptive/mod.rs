@@ -158,7 +158,8 @@ pub enum ErrorEstimate {
     /// It ranks pixels closer to the FLIP oracle (Spearman 0.67–0.72 against 0.60–0.67 on the
     /// Cornell box at 128–1024 spp) but overstates the error of Owen-scrambled Sobol' samples,
     /// so it stops later (599 against 338 spp on the Cornell box at 256²) and, under a budget,
-    /// gains less at equal FLIP p99 on the holodeck; not the default.
+    /// gains less at equal FLIP p99 on the holodeck; not the default. It reads no half-buffer,
+    /// so its passes draw one Sobol' sequence per pixel ([`AdaptiveSettings::streams`]).
     StandardError,
 }
 
@@ -312,6 +313,22 @@ impl AdaptiveSettings {
     pub fn steers(&self) -> bool {
         self.criterion != Criterion::Uniform
             && self.budget_spp.is_none_or(|b| b >= self.steer_from_spp)
+    }
+
+    /// How the render's passes draw each pixel's samples ([`SampleStreams`]): independent
+    /// half-buffer streams wherever the half-buffers' difference is read (the perceptual
+    /// sampler's default estimate, the variance sampler, the denoised error), one sequence per
+    /// pixel where nothing reads it (the uniform sampler, a budget rendered uniformly, the
+    /// perceptual sampler with [`ErrorEstimate::StandardError`], which reads Σ Y²).
+    pub fn streams(&self) -> SampleStreams {
+        let standard_error = self.criterion == Criterion::Perceptual
+            && self.perceptual.error_estimate == ErrorEstimate::StandardError
+            && !self.denoise;
+        if !self.steers() || standard_error {
+            SampleStreams::Whole
+        } else {
+            SampleStreams::Halves
+        }
     }
 
     /// The most samples the loop gives one pixel: `max_spp`, and for the perceptual sampler
@@ -803,7 +820,7 @@ fn adaptive_loop(
         &integrator,
         &mut st.film,
         &first,
-        SampleStreams::Halves,
+        s.streams(),
         sample_progress,
     );
     st.unreported_render = pass.wall;
@@ -864,7 +881,7 @@ fn adaptive_loop(
             &integrator,
             &mut st.film,
             &alloc.want,
-            SampleStreams::Halves,
+            s.streams(),
             sample_progress,
         );
         rate = pass.samples as f64 / pass.wall.as_secs_f64().max(1e-9);

@@ -6,11 +6,17 @@
 //! (luminance-weighted; any positive weight keeps the estimator unbiased, power makes it
 //! efficient): an emissive triangle's is Y(Le) × area × π; an infinite light's is its radiance
 //! times the area π r² of the scene's bounding disc (4π · π r² · mean Y for the environment,
-//! π r² · Y(E) for a sun, as pbrt-v4's `Light::Phi`); a point light's 4π Y(I).
+//! π r² · Y(E) for a sun, as pbrt-v4's `Light::Phi`); a point light's 4π Y(I). The lights at
+//! infinity take their summed power's share as one group, and within it each is chosen in
+//! proportion to the irradiance it can deliver to the shading point's normal (a sun E cos θ,
+//! zero below the surface; an environment its irradiance, Ramamoorthi & Hanrahan 2001), which
+//! depends on the point: power counts the sky's whole sphere, a surface sees a hemisphere of
+//! it cosine-weighted, and a sun behind the surface brings nothing.
 //!
 //! On a triangle it samples a point uniformly (area pdf 1/A) and converts to solid angle at the
 //! receiver: pdf_ω = pdf_A · d² / |cos θ_l| (Veach 1997 eq. 8.10). The environment and suns are
-//! sampled in solid angle directly; point and spot lights are delta lights.
+//! sampled in solid angle directly (a constant environment cosine-weighted about the shading
+//! normal); point and spot lights are delta lights.
 
 //!
 //! One file per light type: [`triangle`], [`environment`], [`sun`], [`point`] (point and spot);
@@ -115,12 +121,13 @@ pub const MIN_BVH_LIGHTS: usize = 8;
 #[serde(rename_all = "lowercase")]
 pub enum LightSampler {
     /// In proportion to each light's importance at the shading point, through a light BVH
-    /// ([`LightBvh`]) over the emissive triangles, point and spot lights; the environment, the
-    /// suns and the BVH as a whole by power. Scenes with fewer than [`MIN_BVH_LIGHTS`] such
-    /// lights use power selection.
+    /// ([`LightBvh`]) over the emissive triangles, point and spot lights; the lights at
+    /// infinity (as a group) and the BVH as a whole by power. Scenes with fewer than
+    /// [`MIN_BVH_LIGHTS`] such lights use power selection.
     #[default]
     Bvh,
-    /// In proportion to power alone, everywhere the same.
+    /// In proportion to power alone (the lights at infinity as a group, chosen among by their
+    /// irradiance at the point, as with the BVH).
     Power,
 }
 
@@ -141,6 +148,11 @@ pub struct Lights {
     /// [`LightSampler::Bvh`]: the BVH and, by power, the choice among the infinite lights
     /// (their entries first) and the BVH (last entry, if any).
     tree: Option<(LightBvh, Distribution1D)>,
+    /// The lights at infinity as one group: the interval of the cumulative distribution
+    /// (`dist`'s, or the tree's top level) their entries span, and its width, the group's
+    /// probability. Within it a light is chosen by the irradiance it delivers at the shading
+    /// point ([`Lights::choose_infinite`]).
+    infinite_group: (f32, f32),
 }
 
 impl Lights {
@@ -213,12 +225,17 @@ impl Lights {
             }
             LightSampler::Bvh | LightSampler::Power => None,
         };
+        let infinite_group = match &tree {
+            Some((_, top)) => (top.cdf(0), top.cdf(n_infinite)),
+            None => (dist.cdf(n_tris), dist.cdf(n_tris + n_infinite)),
+        };
         Some(Lights {
             lights,
             n_tris,
             n_infinite,
             dist,
             tree,
+            infinite_group,
         })
     }
 
@@ -326,40 +343,104 @@ impl Lights {
         self.tree.is_some()
     }
 
-    /// Chooses a light for point `p` with normal `n` with the number `uc`: (light number,
-    /// probability). With the light BVH, the infinite lights and the tree by power, then a
-    /// light in the tree by importance; without it, by power ([`Lights::sample`] passes the
-    /// point's first coordinate as `uc` then).
+    /// Chooses a light for point `p` with shading normal `n` (or zero) with the number `u`:
+    /// (light number, probability, `u` remapped into the chosen light's share of [0, 1)). With
+    /// the light BVH, the group of infinite lights and the tree by power, then a light in the
+    /// tree by importance; without it, every light by power. A light at infinity is then chosen
+    /// within its group by [`Lights::choose_infinite`]. `None` when the group is chosen and
+    /// none of its lights can light the point (its share of `u` gives no light sample: their
+    /// contribution there is zero).
     #[inline]
-    fn choose(&self, p: Vec3, n: Vec3, uc: f32) -> Option<(usize, f32)> {
+    fn choose(&self, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
+        let (k, pk, ur) = match &self.tree {
+            None => self.dist.sample_remap(u),
+            Some((_, top)) => top.sample_remap(u),
+        };
+        let first = if self.tree.is_some() { 0 } else { self.n_tris };
+        if (first..first + self.n_infinite).contains(&k) {
+            let (c0, c1) = self.infinite_group;
+            let ug = ((u - c0) / (c1 - c0)).clamp(0.0, 1.0 - f32::EPSILON);
+            let (li, pi, ui) = self.choose_infinite(n, ug)?;
+            return Some((li, (c1 - c0) * pi, ui));
+        }
         match &self.tree {
-            None => Some(self.dist.sample(uc)),
-            Some((bvh, top)) => {
-                let (k, pk, u) = top.sample_remap(uc);
-                let n_inf = top.len() - 1;
-                if k < n_inf {
-                    return Some((self.n_tris + k, pk));
-                }
-                let (li, pb) = bvh.sample(p, n, u)?;
-                Some((li as usize, pk * pb))
+            None => Some((k, pk, ur)),
+            Some((bvh, _)) => {
+                let (li, pb) = bvh.sample(p, n, ur)?;
+                Some((li as usize, pk * pb, ur))
             }
         }
+    }
+
+    /// Irradiance luminance the light at infinity `k` (0 = the first after the triangles) can
+    /// deliver to a surface of normal `n` (zero: its mean over normals).
+    #[inline]
+    fn infinite_irradiance(&self, k: usize, n: Vec3) -> f32 {
+        match &self.lights[self.n_tris + k] {
+            Light::Environment(env) => env.irradiance(n),
+            Light::Sun(sun) => sun.irradiance_on(n),
+            _ => 0.0,
+        }
+    }
+
+    /// Chooses among the lights at infinity for a point of shading normal `n` (zero: no
+    /// normal) with `u`, in proportion to the irradiance each can deliver there
+    /// ([`Environment::irradiance`], [`Sun::irradiance_on`]): (light number, probability within
+    /// the group, `u` remapped). A sun below the surface is never chosen, and a sun and a sky
+    /// share the samples by what they bring to that surface rather than by their power, which
+    /// counts the sky's whole sphere. Measured on Lost Empire (depth 8, 3 seeds, relMSE against
+    /// a 2048-spp render) under a sun and a constant sky at 320×200: choosing by power with the
+    /// sky sampled over the whole sphere 0.00304 / 0.00059 at 16 / 64 spp, this choice 0.00220
+    /// / 0.00042, and with the sky sampled cosine-weighted about the normal too 0.00184 /
+    /// 0.00035 (Mitsuba 3's `multijitter`, which picks among its emitters uniformly, 0.00176 /
+    /// 0.00037); under the bundled sun and Venice-sunset map at 240×150, 0.00409 / 0.00090
+    /// against 0.00315 / 0.00066. `None` when no light at infinity reaches the surface.
+    #[inline]
+    fn choose_infinite(&self, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
+        let total: f32 = (0..self.n_infinite)
+            .map(|k| self.infinite_irradiance(k, n))
+            .sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let mut x = u * total;
+        let mut chosen = None;
+        for k in 0..self.n_infinite {
+            let e = self.infinite_irradiance(k, n);
+            if e <= 0.0 {
+                continue;
+            }
+            chosen = Some((k, e, x));
+            if x < e {
+                break;
+            }
+            x -= e;
+        }
+        let (k, e, x) = chosen?;
+        Some((
+            self.n_tris + k,
+            e / total,
+            (x / e).clamp(0.0, 1.0 - f32::EPSILON),
+        ))
     }
 
     /// The probability with which [`Lights::choose`] picks light `li` at (`p`, `n`).
     #[inline]
     fn choice_pmf(&self, p: Vec3, n: Vec3, li: usize) -> f32 {
+        let first_inf = self.n_tris;
+        if (first_inf..first_inf + self.n_infinite).contains(&li) {
+            let total: f32 = (0..self.n_infinite)
+                .map(|k| self.infinite_irradiance(k, n))
+                .sum();
+            if !(total > 0.0 && total.is_finite()) {
+                return 0.0;
+            }
+            let (c0, c1) = self.infinite_group;
+            return (c1 - c0) * self.infinite_irradiance(li - first_inf, n) / total;
+        }
         match &self.tree {
             None => self.dist.pmf(li),
-            Some((bvh, top)) => {
-                let n_inf = top.len() - 1;
-                let first_inf = self.n_tris;
-                if (first_inf..first_inf + n_inf).contains(&li) {
-                    top.pmf(li - first_inf)
-                } else {
-                    top.pmf(n_inf) * bvh.pmf(p, n, li as u32)
-                }
-            }
+            Some((bvh, top)) => top.pmf(self.n_infinite) * bvh.pmf(p, n, li as u32),
         }
     }
 
@@ -383,16 +464,16 @@ impl Lights {
         textures: &[Texture],
     ) -> Option<LightSample> {
         let (li, pmf, u) = if self.chooses_with_own_sample() {
-            let (li, pmf) = self.choose(p_ref, n_ref, uc)?;
+            let (li, pmf, _) = self.choose(p_ref, n_ref, uc)?;
             (li, pmf, u)
         } else {
-            let (li, pmf) = self.choose(p_ref, n_ref, u.x)?;
-            (li, pmf, Vec2::new(self.dist.remap(li, u.x), u.y))
+            let (li, pmf, ux) = self.choose(p_ref, n_ref, u.x)?;
+            (li, pmf, Vec2::new(ux, u.y))
         };
         match &self.lights[li] {
             Light::Triangle(t) => t.sample_from(pmf, p_ref, u, time, geo, materials, textures),
             Light::Environment(env) => {
-                let (wi, le, pdf) = env.sample(u)?;
+                let (wi, le, pdf) = env.sample(u, n_ref)?;
                 Some(LightSample::infinite(p_ref, wi, le, pmf * pdf))
             }
             Light::Sun(sun) => Some(sun.sample_from(p_ref, u, pmf)),
@@ -401,22 +482,23 @@ impl Lights {
     }
 
     /// Radiance arriving along unit direction `d` from the lights at infinity (a ray that left
-    /// the scene), each term weighted by `weight(pdf)`, where pdf is the solid-angle density
-    /// with which [`Lights::sample`] would have chosen that light and direction (for MIS).
+    /// the scene after a vertex of shading normal `n`, or zero), each term weighted by
+    /// `weight(pdf)`, where pdf is the solid-angle density with which [`Lights::sample`] would
+    /// have chosen that light and direction at that vertex (for MIS).
     #[inline]
-    pub fn infinite_radiance(&self, d: Vec3, weight: impl Fn(f32) -> f32) -> Vec3 {
+    pub fn infinite_radiance(&self, d: Vec3, n: Vec3, weight: impl Fn(f32) -> f32) -> Vec3 {
         let mut l = Vec3::ZERO;
         let first = self.n_tris;
         for (k, light) in self.lights[first..first + self.n_infinite]
             .iter()
             .enumerate()
         {
-            let pmf = || self.choice_pmf(Vec3::ZERO, Vec3::ZERO, first + k);
+            let pmf = || self.choice_pmf(Vec3::ZERO, n, first + k);
             match light {
                 Light::Environment(env) => {
                     let le = env.radiance(d);
                     if le.max_element() > 0.0 {
-                        l += le * weight(pmf() * env.pdf(d));
+                        l += le * weight(pmf() * env.pdf(d, n));
                     }
                 }
                 Light::Sun(sun) if sun.contains(d) => {

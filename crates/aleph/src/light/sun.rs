@@ -51,6 +51,23 @@ impl Sun {
         })
     }
 
+    /// Luminance of the irradiance the disc can deliver to a surface of unit normal `n`
+    /// (W·m⁻², luminance-weighted): Y(E) times the largest cosine over the disc,
+    /// clamp(n · s + sin α, 0, 1), so it is zero only where the whole disc is below the surface;
+    /// Y(E)/4, its mean over normals, for `n` = 0 (no normal). A weight for choosing among the
+    /// lights at infinity ([`super::Lights`]).
+    #[inline]
+    pub fn irradiance_on(&self, n: Vec3) -> f32 {
+        let y = crate::math::luminance(self.irradiance.max(Vec3::ZERO));
+        if n == Vec3::ZERO {
+            return 0.25 * y;
+        }
+        // sin α from 1 − cos α = 2 sin²(α/2): sin α = 2 sin(α/2) cos(α/2).
+        let s_half = (0.5 * self.one_minus_cos).sqrt();
+        let sin_a = 2.0 * s_half * (1.0 - s_half * s_half).max(0.0).sqrt();
+        y * (n.dot(self.direction) + sin_a).clamp(0.0, 1.0)
+    }
+
     /// Solid angle of the disc, sr.
     #[inline]
     pub fn solid_angle(&self) -> f32 {
