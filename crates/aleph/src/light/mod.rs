@@ -116,6 +116,10 @@ pub struct OtherLights {
 /// CPU time of 5 paired runs) for no gain.
 pub const MIN_BVH_LIGHTS: usize = 8;
 
+/// Lights at infinity whose irradiances [`Lights::choose`] keeps on the stack (more are
+/// evaluated twice).
+const MAX_CACHED_INFINITE: usize = 4;
+
 /// How next-event estimation chooses a light.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -397,30 +401,45 @@ impl Lights {
     /// against 0.00315 / 0.00066. `None` when no light at infinity reaches the surface.
     #[inline]
     fn choose_infinite(&self, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
-        let total: f32 = (0..self.n_infinite)
-            .map(|k| self.infinite_irradiance(k, n))
-            .sum();
+        // Each light's irradiance once (a sky and a few suns fit on the stack).
+        let mut e = [0f32; MAX_CACHED_INFINITE];
+        let cached = self.n_infinite <= MAX_CACHED_INFINITE;
+        let at = |k: usize, e: &[f32]| {
+            if cached {
+                e[k]
+            } else {
+                self.infinite_irradiance(k, n)
+            }
+        };
+        let mut total = 0f32;
+        for k in 0..self.n_infinite {
+            let ek = self.infinite_irradiance(k, n);
+            if cached {
+                e[k] = ek;
+            }
+            total += ek;
+        }
         if !(total > 0.0 && total.is_finite()) {
             return None;
         }
         let mut x = u * total;
         let mut chosen = None;
         for k in 0..self.n_infinite {
-            let e = self.infinite_irradiance(k, n);
-            if e <= 0.0 {
+            let ek = at(k, &e);
+            if ek <= 0.0 {
                 continue;
             }
-            chosen = Some((k, e, x));
-            if x < e {
+            chosen = Some((k, ek, x));
+            if x < ek {
                 break;
             }
-            x -= e;
+            x -= ek;
         }
-        let (k, e, x) = chosen?;
+        let (k, ek, x) = chosen?;
         Some((
             self.n_tris + k,
-            e / total,
-            (x / e).clamp(0.0, 1.0 - f32::EPSILON),
+            ek / total,
+            (x / ek).clamp(0.0, 1.0 - f32::EPSILON),
         ))
     }
 

@@ -38,6 +38,11 @@
 //! tests measure 1.02 σ²/N and 31× the net's own error on a smooth integrand), which is why
 //! the samplers that steer keep the independent layout.
 //!
+//! **The scramble's quality.** An exact nested uniform scramble (each output bit flipped by a
+//! hash of the level and the bits above it, 24–32 hashes per coordinate) in place of the
+//! Laine–Karras hash gave 0.00705 / 0.00142 on the same box against 0.00696 / 0.00141 with one
+//! sequence per pixel: the hash loses nothing measurable, and stays.
+//!
 //! **Against OpenQMC** (`openqmc-rs` 0.2.4, a port of the Academy Software Foundation's
 //! library, tried as the generator: one 4-D domain per dimension pair, every dimension, the
 //! same half-buffer streams): its Sobol' sampler gave 1.03× / 1.03× lower relMSE at 16 / 64
