@@ -411,14 +411,15 @@ impl Lights {
                 self.infinite_irradiance(k, n)
             }
         };
-        let mut total = 0f32;
-        for k in 0..self.n_infinite {
-            let ek = self.infinite_irradiance(k, n);
-            if cached {
-                e[k] = ek;
-            }
-            total += ek;
-        }
+        let total: f32 = (0..self.n_infinite)
+            .map(|k| {
+                let ek = self.infinite_irradiance(k, n);
+                if cached {
+                    e[k] = ek;
+                }
+                ek
+            })
+            .sum();
         if !(total > 0.0 && total.is_finite()) {
             return None;
         }
