@@ -582,6 +582,29 @@ impl LoopState {
         })
     }
 
+    /// Renders `counts[i]` more samples into pixel i of the film, drawn as `streams` says, and
+    /// keeps the pass's statistics and its rendering time (for the next report); returns them.
+    fn render(
+        &mut self,
+        scene: &Scene,
+        integrator: &Integrator,
+        counts: &[u32],
+        streams: SampleStreams,
+        sample_progress: &(dyn Fn(u64) + Sync),
+    ) -> RenderStats {
+        let pass = render_counts(
+            scene,
+            integrator,
+            &mut self.film,
+            counts,
+            streams,
+            sample_progress,
+        );
+        self.unreported_render = pass.wall;
+        self.stats += pass;
+        pass
+    }
+
     /// Records a pass's report (and calls `progress`); returns the fraction converged.
     fn report(&mut self, ratio: &[f32], progress: &(dyn Fn(&PassReport) + Sync)) -> f64 {
         let n_px = self.region.len();
@@ -815,16 +838,7 @@ fn adaptive_loop(
         None => s.min_spp,
     };
     let first = vec![min_spp; st.film.len()];
-    let pass = render_counts(
-        scene,
-        &integrator,
-        &mut st.film,
-        &first,
-        s.streams(),
-        sample_progress,
-    );
-    st.unreported_render = pass.wall;
-    st.stats += pass;
+    st.render(scene, &integrator, &first, s.streams(), sample_progress);
     hooks.refined(1, &st.film)?;
     if budget_total.is_some_and(|b| st.region_samples() as f64 >= b as f64 - 0.002 * n_px as f64) {
         return Ok(unjudged(st, s, progress, velocity, start));
@@ -876,17 +890,14 @@ fn adaptive_loop(
             };
             fit_to_budget(&mut alloc, &st.film, &ratio, samples, cap);
         }
-        let pass = render_counts(
+        let pass = st.render(
             scene,
             &integrator,
-            &mut st.film,
             &alloc.want,
             s.streams(),
             sample_progress,
         );
         rate = pass.samples as f64 / pass.wall.as_secs_f64().max(1e-9);
-        st.unreported_render = pass.wall;
-        st.stats += pass;
         hooks.refined(st.passes.len() + 1, &st.film)?;
     };
     let mut r = st.finish(s, stop, Some(judgement), velocity, start);

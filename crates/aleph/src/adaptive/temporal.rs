@@ -25,7 +25,6 @@ use super::{
 use crate::film::Film;
 use crate::gbuffer::GBuffer;
 use crate::integrator::{Integrator, Strategy};
-use crate::render::render_counts;
 use crate::reuse::{Reprojected, ReuseWindow, Tested};
 use crate::sampler::SampleStreams;
 use crate::scene::Scene;
@@ -83,16 +82,13 @@ pub fn render_reusing(
     let n_px = st.film.len();
     let budget_total = s.budget_spp.map(|b| (b * n_px as f64).round() as u64);
     let first = vec![first_pass_spp(s.budget_spp); n_px];
-    let pass = render_counts(
+    st.render(
         scene,
         &integrator,
-        &mut st.film,
         &first,
         SampleStreams::Halves,
         sample_progress,
     );
-    st.unreported_render = pass.wall;
-    st.stats += pass;
     let t_test = Instant::now();
     let mut tested = retest(&reprojected, &mut st.film);
     reuse_time += t_test.elapsed();
@@ -145,16 +141,13 @@ pub fn render_reusing(
             };
             break (judgement, reason);
         }
-        let pass = render_counts(
+        st.render(
             scene,
             &integrator,
-            &mut st.film,
             &alloc.want,
             SampleStreams::Halves,
             sample_progress,
         );
-        st.unreported_render = pass.wall;
-        st.stats += pass;
         // The test again, with every fresh sample so far: more of them resolve smaller changes.
         let t_test = Instant::now();
         tested = retest(&reprojected, &mut st.film);

@@ -116,10 +116,6 @@ pub struct OtherLights {
 /// CPU time of 5 paired runs) for no gain.
 pub const MIN_BVH_LIGHTS: usize = 8;
 
-/// Lights at infinity whose irradiances [`Lights::choose`] keeps on the stack (more are
-/// evaluated twice).
-const MAX_CACHED_INFINITE: usize = 4;
-
 /// How next-event estimation chooses a light.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -401,47 +397,36 @@ impl Lights {
     /// against 0.00315 / 0.00066. `None` when no light at infinity reaches the surface.
     #[inline]
     fn choose_infinite(&self, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
-        // Each light's irradiance once (a sky and a few suns fit on the stack).
-        let mut e = [0f32; MAX_CACHED_INFINITE];
-        let cached = self.n_infinite <= MAX_CACHED_INFINITE;
-        let at = |k: usize, e: &[f32]| {
-            if cached {
-                e[k]
-            } else {
-                self.infinite_irradiance(k, n)
-            }
-        };
-        let total: f32 = (0..self.n_infinite)
-            .map(|k| {
-                let ek = self.infinite_irradiance(k, n);
-                if cached {
-                    e[k] = ek;
-                }
-                ek
-            })
-            .sum();
-        if !(total > 0.0 && total.is_finite()) {
-            return None;
-        }
+        let total = self.infinite_total(n)?;
         let mut x = u * total;
         let mut chosen = None;
         for k in 0..self.n_infinite {
-            let ek = at(k, &e);
-            if ek <= 0.0 {
+            let e = self.infinite_irradiance(k, n);
+            if e <= 0.0 {
                 continue;
             }
-            chosen = Some((k, ek, x));
-            if x < ek {
+            chosen = Some((k, e, x));
+            if x < e {
                 break;
             }
-            x -= ek;
+            x -= e;
         }
-        let (k, ek, x) = chosen?;
+        let (k, e, x) = chosen?;
         Some((
             self.n_tris + k,
-            ek / total,
-            (x / ek).clamp(0.0, 1.0 - f32::EPSILON),
+            e / total,
+            (x / e).clamp(0.0, 1.0 - f32::EPSILON),
         ))
+    }
+
+    /// The summed irradiance of the lights at infinity at normal `n`; `None` when it is not a
+    /// positive finite number (no light at infinity reaches the surface).
+    #[inline]
+    fn infinite_total(&self, n: Vec3) -> Option<f32> {
+        let total: f32 = (0..self.n_infinite)
+            .map(|k| self.infinite_irradiance(k, n))
+            .sum();
+        (total > 0.0 && total.is_finite()).then_some(total)
     }
 
     /// The probability with which [`Lights::choose`] picks light `li` at (`p`, `n`).
@@ -449,12 +434,9 @@ impl Lights {
     fn choice_pmf(&self, p: Vec3, n: Vec3, li: usize) -> f32 {
         let first_inf = self.n_tris;
         if (first_inf..first_inf + self.n_infinite).contains(&li) {
-            let total: f32 = (0..self.n_infinite)
-                .map(|k| self.infinite_irradiance(k, n))
-                .sum();
-            if !(total > 0.0 && total.is_finite()) {
+            let Some(total) = self.infinite_total(n) else {
                 return 0.0;
-            }
+            };
             let (c0, c1) = self.infinite_group;
             return (c1 - c0) * self.infinite_irradiance(li - first_inf, n) / total;
         }
