@@ -181,19 +181,19 @@ fn farm_scripts_give_the_single_machine_files() {
     let scene = scene.to_str().unwrap();
     let opts = ["--resolution", "40x40", "--spp", "6"];
     // A sequence of the perceptual sampler reusing frames (the default window of 7: frames
-    // 2-4 are one run, one task; a window of 1: runs 2-3 and 4-5, two tasks, the first
-    // starting at a run's start and the second rendering only frame 4), one of independent
-    // frames (a task per frame), and one split by samples (uniform).
-    let cases: [(&str, Vec<&str>, usize); 4] = [
-        ("frames", vec![], 1),
-        ("runs", vec!["--reuse-window", "1"], 2),
-        ("independent", vec!["--reuse-window", "0"], 3),
-        ("parts", vec!["--sampler", "uniform"], 9),
+    // 2-4 lie in one chunk of 32 frames, one task; a window of 1: chunks of 8 frames, so 6-9
+    // are two tasks, 6-7 and 8-9, the second rendering the base pass of frame 7 as warm-up),
+    // one of independent frames (a task per frame), and one split by samples (uniform).
+    let cases: [(&str, &str, Vec<&str>, usize); 4] = [
+        ("frames", "2-4", vec![], 1),
+        ("chunks", "6-9", vec!["--reuse-window", "1"], 2),
+        ("independent", "2-4", vec!["--reuse-window", "0"], 3),
+        ("parts", "2-4", vec!["--sampler", "uniform"], 9),
     ];
-    for (name, extra, n) in cases {
+    for (name, frames, extra, n) in cases {
         let reference = d.join(format!("{name}-ref"));
         std::fs::create_dir(&reference).unwrap();
-        let mut args = vec!["render", scene, "--frames", "2-4", "-o"];
+        let mut args = vec!["render", scene, "--frames", frames, "-o"];
         let stem = reference.join("cornell-motion");
         args.push(stem.to_str().unwrap());
         args.extend(opts.iter().chain(&extra));
@@ -205,7 +205,7 @@ fn farm_scripts_give_the_single_machine_files() {
             "slurm",
             scene,
             "--frames",
-            "2-4",
+            frames,
             "--split-samples",
             split,
         ];
@@ -224,15 +224,16 @@ fn farm_scripts_give_the_single_machine_files() {
         assert_same_files(&reference, &farm);
         // The parts are gone once merged; a rerun skips every task and changes nothing.
         assert!(!files(&farm).iter().any(|f| f.contains(".part-")));
-        let before = std::fs::read(farm.join("cornell-motion.0003.exr")).unwrap();
+        let last = format!(
+            "cornell-motion.{:04}.exr",
+            &frames[2..].parse::<u32>().unwrap()
+        );
+        let before = std::fs::read(farm.join(&last)).unwrap();
         for i in 0..n {
             assert!(run_script(&farm.join("render.sbatch"), Some(i)).contains("skipped"));
         }
         run_script(&farm.join("finish.sbatch"), None);
-        assert_eq!(
-            std::fs::read(farm.join("cornell-motion.0003.exr")).unwrap(),
-            before
-        );
+        assert_eq!(std::fs::read(farm.join(&last)).unwrap(), before);
     }
 }
 

@@ -10,8 +10,10 @@
 //! were checked byte-identical (`cmp`) to 32c614b's; only `seq.filmstrip.png` changed.
 //!
 //! Two cases were added with reuse across frames (issue 33) and recorded when it landed: the
-//! same two sequences with `--reuse-window 2` (frames 2-4 of the moving-sphere box: run 0-2
-//! and the keyframe 3 with frame 4; the holodeck's frames 0-2: one run).
+//! same two sequences with `--reuse-window 2` (frames 2-4 of the moving-sphere box, after the
+//! base passes of frames 0 and 1; the holodeck's frames 0-2). Both were re-recorded when a
+//! frame came to reuse only the base passes of the K frames before it (a sliding window, no
+//! keyframes).
 //!
 //! Every case was re-recorded when Russian roulette moved from bounce 3 to bounce 5 (issue 36,
 //! measured in `crates/aleph/src/integrator.rs`): a deliberate change of every path longer
@@ -342,8 +344,8 @@ pub const GOLDEN: &[(&str, u64)] = &[
     ("scenes/mori-knob/scene.toml converged", 0x011f1c4d4c89c1f3),
     ("cornell-motion sequence", 0x68f09bc5983ac3a6),
     ("holodeck pan sequence", 0xd281dd8176f5ab67),
-    ("cornell-motion sequence reusing frames", 0x2072865d45fd3e50),
-    ("holodeck pan sequence reusing frames", 0x8a5ab4c815c9fcbd),
+    ("cornell-motion sequence reusing frames", 0x0d61869503fd4b61),
+    ("holodeck pan sequence reusing frames", 0x43e4ade47209b08a),
     ("cornell-box parts merged", 0xd3635bdd26f248c8),
     ("cornell-motion frame parts merged", 0xda1ee6b6255f7daf),
     ("cornell-box tiles merged", 0xe29bda9defa0063a),

@@ -130,12 +130,15 @@ fn a_still_camera_reuses_every_earlier_frame_without_bias() {
     let scene = cornell_sequence(dir.path(), 32, STILL_CAMERA, "");
     let keep = run(&job(&scene, 7, 16.0, [0, 3]));
     let (f0, f3) = (keep.frame(0), keep.frame(3));
-    // Frame 3 holds frames 0–2's 48 fresh samples per pixel besides its own 16 (the test
-    // against the fresh samples may drop a few pixels' history by chance).
+    // Frame 3 holds frames 0–2's base passes (8 of each frame's 16 fresh samples per pixel),
+    // 24 in all, besides its own 16 (the test against the fresh samples may drop a few
+    // pixels' history by chance).
+    let base = aleph::reuse::base_spp(Some(16.0)) as f64;
+    assert_eq!(base, 8.0);
     let r = f3.reuse.unwrap();
     assert_eq!(r.frames, 3);
     assert!(
-        r.mean_history_spp > 0.95 * 48.0 && r.mean_history_spp <= 48.0 + 1e-9,
+        r.mean_history_spp > 0.95 * 3.0 * base && r.mean_history_spp <= 3.0 * base + 1e-9,
         "{r:?}"
     );
     assert!(f0.reuse.unwrap().mean_history_spp == 0.0);
@@ -146,7 +149,9 @@ fn a_still_camera_reuses_every_earlier_frame_without_bias() {
     let z = worst_z(&block_stats(&f3, b), &reference);
     assert!(z < sidak_z(0.01, 16), "worst block z {z}");
     // And its error estimate shrank with the samples: the half-buffer error, summed over the
-    // image, falls about as 1/√4 from frame 0 to frame 3 (64 against 16 samples).
+    // image, falls about as √(16 / 40) = 0.63 from frame 0 to frame 3 (40 against 16
+    // samples; the sum over 1024 pixels varies by about 3 %, the allocation's unevenness
+    // moves it a little more).
     let err = |r: &AdaptiveResult| -> f64 {
         (0..r.film.len())
             .map(|i| {
@@ -156,7 +161,25 @@ fn a_still_camera_reuses_every_earlier_frame_without_bias() {
             .sum()
     };
     let ratio = err(&f3) / err(&f0);
-    assert!((0.35..0.7).contains(&ratio), "error ratio {ratio}");
+    assert!((0.5..0.76).contains(&ratio), "error ratio {ratio}");
+}
+
+#[test]
+fn the_window_slides_every_frame_keeps_k_base_passes() {
+    let dir = tempdir();
+    let scene = cornell_sequence(dir.path(), 16, STILL_CAMERA, "");
+    let keep = run(&job(&scene, 2, 8.0, [0, 5]));
+    let base = aleph::reuse::base_spp(Some(8.0)) as f64;
+    for f in 0..=5 {
+        // No keyframes: from frame 2 on every frame holds the two base passes before it.
+        let r = keep.frame(f).reuse.unwrap();
+        let k = f.min(2) as f64;
+        assert_eq!(r.frames as f64, k, "frame {f}");
+        assert!(
+            r.mean_history_spp >= 0.95 * k * base && r.mean_history_spp <= k * base + 1e-9,
+            "frame {f}: {r:?}"
+        );
+    }
 }
 
 /// A wall at z = −2 with a smooth texture (period ¼ of the view), lit by an emitter behind
@@ -252,12 +275,9 @@ fn a_pan_reprojects_the_wall_onto_itself_and_samples_what_comes_into_view() {
     };
     let (edge_h, edge_f) = col(w - 1);
     let mid_f = (0..w - 4).map(|x| col(x).1).sum::<f64>() / (w - 4) as f64;
-    // Its one neighbour in frame 2 (bilinear weight 0.3, renormalised) is all it reuses.
-    let f2 = keep.frame(2);
-    let from_2 = (0..48)
-        .map(|y| f2.film.pixels[y * w + w - 1].count() as f64)
-        .sum::<f64>()
-        / 48.0;
+    // Its one neighbour in frame 2 (bilinear weight 0.3, renormalised) is all it reuses: that
+    // pixel's base pass.
+    let from_2 = aleph::reuse::base_spp(Some(8.0)) as f64;
     assert!(
         (edge_h - from_2).abs() < 1e-9,
         "edge reuses {edge_h}, frame 2 gave it {from_2}"
@@ -415,7 +435,7 @@ fn a_frame_rendered_alone_equals_the_same_frame_in_its_sequence() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     };
     run(&["--frames", "0-5", "--reuse-window", "2", "-o", "seq"]);
-    // Frame 4 is the second of the run 3–5: alone it renders frame 3 first.
+    // Alone, frame 4 renders the base passes of frames 2 and 3 first (its window of 2).
     run(&["--frame", "4", "--reuse-window", "2", "-o", "alone"]);
     let read = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
     let (a, b) = (read("seq.0004.exr"), read("alone.0004.exr"));

@@ -2,7 +2,7 @@
 //!
 //! `.ci/run` starts a single-node cluster with `tests/slurm/cluster.sh start DIR` and runs
 //! `SLURM_CONF=DIR/slurm.conf cargo test --release --test slurm -- --ignored`. The test submits
-//! a 4-frame sequence split into runs of frames that reuse each other (perceptual sampler) and a still split into 2 sample parts
+//! a 4-frame sequence split into chunks of frames that reuse each other (perceptual sampler) and a still split into 2 sample parts
 //! (uniform) with `aleph farm slurm --submit --wait`, and checks every file against the same
 //! command line rendered on one machine, byte for byte. It prints the finishing job's split of
 //! the wall time (queueing, rendering, merging).
@@ -96,9 +96,9 @@ fn farm_through_slurm_equals_one_machine() {
         root,
         "sequence",
         motion.to_str().unwrap(),
-        &["--frames", "1-4"],
-        // Reusing frames in runs of 2 (0-1, 2-3, 4-5): three tasks, frames 1 and 4 each
-        // rendering the frame before it as warm-up only where its run starts earlier.
+        &["--frames", "6-9"],
+        // Reusing frames with a window of 1, in chunks of 8 (0-7, 8-15): two tasks, 6-7 and
+        // 8-9, each rendering the base pass of the frame before it as warm-up.
         &[
             "--resolution",
             "64x64",
@@ -108,7 +108,7 @@ fn farm_through_slurm_equals_one_machine() {
             "1",
         ],
     );
-    println!("4-frame sequence reusing frames, split into runs: {log}");
+    println!("4-frame sequence reusing frames, split into chunks: {log}");
     let still = repo("scenes/cornell-box/scene.toml");
     let still = still.to_str().unwrap();
     let opts = [

@@ -129,8 +129,8 @@ struct Manifest {
     /// Rows on each side of a tile that also take samples (`--tile-margin`).
     #[serde(default)]
     tile_margin: u32,
-    /// The animation's first frame, where the runs of frames that reuse each other start
-    /// (`aleph::reuse::run_start`): a render that reuses frames gets one task per run.
+    /// The animation's first frame, where the chunks of a render that reuses frames start
+    /// (`aleph::reuse::chunk_start`): such a render gets one task per chunk.
     #[serde(default)]
     runs_from: Option<i64>,
     /// The render every task runs a frame or a part of (its frames, split and outputs are the
@@ -138,7 +138,7 @@ struct Manifest {
     job: RenderJob,
 }
 
-/// What one task renders: frames `[first, last]` (one frame, or a run of frames that reuse
+/// What one task renders: frames `[first, last]` (one frame, or a chunk of frames that reuse
 /// each other) and a part of them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Task {
@@ -154,9 +154,10 @@ impl Manifest {
         }
     }
 
-    /// The frame ranges of the tasks: each frame alone, or with reuse across frames the runs
-    /// of K + 1 frames (a frame depends on its run's earlier frames, so a run is rendered on
-    /// one machine; a range that starts inside a run renders its warm-up frames first).
+    /// The frame ranges of the tasks: each frame alone, or with reuse across frames chunks of
+    /// `aleph::reuse::CHUNK_WINDOWS` × (K + 1) frames (a frame reuses the base passes of the K
+    /// frames before it, which a chunk renders first as warm-up; longer chunks spend less of
+    /// the farm on warm-up).
     fn frame_ranges(&self) -> Vec<Option<[i64; 2]>> {
         let k = self.job.reuse_window();
         match (self.frames, self.runs_from) {
@@ -164,7 +165,8 @@ impl Manifest {
                 let mut out = Vec::new();
                 let mut f = a;
                 while f <= b {
-                    let end = (aleph::reuse::run_start(f, start, k) + k as i64).min(b);
+                    let len = aleph::reuse::CHUNK_WINDOWS * (k as i64 + 1);
+                    let end = (aleph::reuse::chunk_start(f, start, k) + len - 1).min(b);
                     out.push(Some([f, end]));
                     f = end + 1;
                 }
@@ -475,7 +477,7 @@ fn batch_scripts(m: &Manifest, dir: &Path, a: &SlurmArgs, n_tasks: usize) -> (St
             format!("--output={}", logs.join("task-%a.out").display()),
         ],
     ) + &format!(
-        "# One task per frame{} (per run of frames that reuse each other, with reuse \
+        "# One task per frame{} (per chunk of frames that reuse each other, with reuse \
          across frames); a task whose outputs exist does nothing.\n\
          exec {} farm task {} --index \"$SLURM_ARRAY_TASK_ID\"\n",
         match (m.split > 1, m.tiles) {

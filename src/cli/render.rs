@@ -178,10 +178,9 @@ pub struct SamplingArgs {
     /// still; for comparisons).
     #[arg(long, help_heading = "Adaptive sampling")]
     pub no_velocity: bool,
-    /// Sequences: each frame reuses the samples of up to K frames before it (the perceptual
-    /// sampler; frames are rendered in runs of K + 1 from the animation's first frame, and a
-    /// frame rendered alone renders the earlier frames of its run first). 0 renders independent
-    /// frames. Default: 7 for the perceptual sampler, 0 for the others and with --time.
+    /// Sequences: each frame reuses the base passes (the first half of the fresh samples) of up
+    /// to K frames before it (the perceptual sampler; a frame rendered alone renders those K
+    /// base passes first). 0 renders independent frames. Default: 7 for the perceptual sampler, 0 for the others and with --time.
     #[arg(long, value_name = "K", help_heading = "Adaptive sampling")]
     pub reuse_window: Option<u32>,
 }

@@ -11,7 +11,7 @@ use aleph::imaging::false_colour;
 use aleph::integrator::Strategy;
 use aleph::output::{AtomicOutputs, ChannelData, OutputError, write_exr, write_png};
 use aleph::render::{pixel_costs, render_uniform_streams};
-use aleph::reuse::{FrameSamples, ReuseWindow};
+use aleph::reuse::ReuseWindow;
 use aleph::sampler::SampleStreams;
 use aleph::scene::{Scene, SceneDescription};
 use aleph::sequence::Sequence;
@@ -492,7 +492,7 @@ pub fn sweep(
     let sequence = match (frames.first(), frames.last()) {
         (Some(Some(first)), Some(Some(last))) => {
             let start = scene.animation.map_or(*first, |a| a.frame_start);
-            let warm = aleph::reuse::run_start(*first, start, spec.reuse_window);
+            let warm = aleph::reuse::window_start(*first, start, spec.reuse_window);
             Some(Sequence::new(&scene, warm, *last)?)
         }
         _ => None,
@@ -531,7 +531,7 @@ pub fn sweep(
         ),
     };
     if let (Some(Some(first)), Some(seq)) = (frames.first(), &sequence) {
-        warm_up_reuse(&scene, seq, *first, spec, base, operator, &mut st)?;
+        warm_up_reuse(seq, *first, spec, base, &mut st)?;
     }
     for (k, &frame) in frames.iter().enumerate() {
         let (scene, ref_scene, adaptation) = match (frame, &sequence) {
@@ -754,8 +754,8 @@ fn judged_render(
     Ok((row, rgb))
 }
 
-/// The reuse arm's frame at `budget` (the mean fresh budget of its run): the frame reuses the
-/// window of that budget, then joins it.
+/// The reuse arm's frame at `budget` (fresh spp): the frame reuses the window of that budget,
+/// then its base pass joins it.
 fn render_reused(
     scene: &Scene,
     settings: &AdaptiveSettings,
@@ -764,44 +764,35 @@ fn render_reused(
 ) -> Result<AdaptiveResult, SpeedupError> {
     let (k, start) = st.reuse;
     let bi = st.windows_index(budget);
-    let frame = scene.frame.index;
-    let run = aleph::reuse::run_start(frame, start, k);
     let window = &mut st.windows[bi];
-    window.keep_from(run);
+    window.keep_from(aleph::reuse::window_start(scene.frame.index, start, k));
     let mut settings = settings.clone();
-    settings.budget_spp = Some(aleph::reuse::frame_budget(budget, frame - run, k));
-    let r = aleph::adaptive::render_reusing(scene, &settings, window, &|_| {}, &|_| {})?;
-    let g = r.gbuffer.clone().expect("a rendered frame has a G-buffer");
-    window.push(FrameSamples::new(frame, &r.film, g));
+    settings.budget_spp = Some(budget);
+    let (r, base) = aleph::adaptive::render_reusing(scene, &settings, window, &|_| {}, &|_| {})?;
+    window.push(base);
     Ok(r)
 }
 
-/// Renders the reuse arm's frames of the first frame's run before it (not judged), so the
+/// Renders the base passes of the reuse arm's K frames before the first (not judged), so the
 /// sweep's first frame reuses what `aleph render` would.
 fn warm_up_reuse(
-    scene: &Scene,
     sequence: &Sequence,
     first: i64,
     spec: &SweepSpec,
     base: &AdaptiveSettings,
-    operator: Operator,
     st: &mut SweepState,
 ) -> Result<(), SpeedupError> {
     let (k, start) = st.reuse;
-    for f in aleph::reuse::run_start(first, start, k)..first {
+    for f in aleph::reuse::window_start(first, start, k)..first {
         let ctx = sequence.frame(f)?;
-        let mut tone = base.tone;
-        tone.operator = operator;
-        tone.luminance_scale = scene.settings.luminance_scale;
-        tone.adaptation_state = Some(ctx.adaptation);
-        for &budget in &spec.budgets {
+        for (bi, &budget) in spec.budgets.iter().enumerate() {
             let settings = AdaptiveSettings {
                 criterion: Criterion::Perceptual,
                 budget_spp: Some(budget),
-                tone,
                 ..base.clone()
             };
-            render_reused(&ctx.scene, &settings, budget, st)?;
+            let frame = aleph::adaptive::render_base(&ctx.scene, &settings)?;
+            st.windows[bi].push(frame);
         }
     }
     Ok(())

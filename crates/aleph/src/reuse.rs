@@ -2,8 +2,9 @@
 //! traced on the same surfaces (Myszkowski, Rokita & Tawara 1999; DESIGN.md §12).
 //!
 //! # What is reused
-//! The *fresh* samples of each of the last K frames (the window, [`ReuseWindow`]), kept per
-//! pixel as half-buffer sums, are reprojected directly into the current frame, each frame
+//! The *base pass* of each of the last K frames (the window, [`ReuseWindow`]): the first
+//! [`base_spp`] fresh samples of every pixel, drawn uniformly before anything about the frame
+//! was judged, kept per pixel as half-buffer sums. They are reprojected directly into the current frame, each frame
 //! once: pixel p's surface x (the G-buffer's hit at the pixel centre, carried with its
 //! object) is projected by frame j's camera at frame j's instant, and frame j's sums are
 //! resampled there bilinearly over the neighbours that saw the same surface. Reprojecting every
@@ -43,11 +44,16 @@
 //! may be wrong.
 //!
 //! # The window
-//! A frame depends on at most K frames before it: frames are grouped from the animation's
-//! first frame into runs of K + 1 ([`run_start`]); the first of a run (a keyframe) reuses
-//! nothing and later ones reuse the run's earlier frames. Any frame renders alone after at
-//! most K warm-up frames, and a run is the unit a farm hands out. K = 0 gives independent
-//! frames.
+//! A frame reuses the base passes of the K frames before it (a sliding window; fewer at the
+//! animation's start). A base pass depends on its frame alone, not on what that frame reused,
+//! so any frame renders alone after the base passes of its K warm-up frames
+//! ([`crate::adaptive::render_base`]), and a farm may cut a sequence anywhere
+//! ([`chunk_start`]). The samples a frame adds after its base pass, where perception asked for
+//! them, are its own: they depend on its history, and reusing them would chain every frame to
+//! the animation's first. Every frame after the first K has the same history (no keyframe
+//! whose quality steps down every K + 1 frames: on the moving-sphere box that step was a
+//! 3 Hz pulse of the displayed mean, which ColorVideoVDP scored below independent frames).
+//! K = 0 gives independent frames.
 
 use crate::film::{Film, HistoryPixel};
 use crate::gbuffer::GBuffer;
@@ -90,35 +96,44 @@ pub const Z_REJECT: f64 = 3.0;
 /// The largest reuse window, frames.
 pub const MAX_WINDOW: u32 = 64;
 
-/// The first frame of the run of K + 1 frames that `frame` belongs to (runs start at the
-/// animation's first frame `first`); `frame` itself for K = 0.
-pub fn run_start(frame: i64, first: i64, k: u32) -> i64 {
-    let len = k as i64 + 1;
+/// The first frame whose base pass `frame` reuses: K frames back, not before the animation's
+/// first frame `first`; `frame` itself for K = 0.
+pub fn window_start(frame: i64, first: i64, k: u32) -> i64 {
+    (frame - k as i64).max(first).min(frame)
+}
+
+/// Windows a farm's chunk of frames spans ([`chunk_start`]): a chunk renders K warm-up base
+/// passes before its first frame, so longer chunks spend less of the farm on them.
+pub const CHUNK_WINDOWS: i64 = 4;
+
+/// The first frame of the farm chunk `frame` belongs to: chunks of
+/// [`CHUNK_WINDOWS`] × (K + 1) frames from the animation's first frame `first`; `frame` itself
+/// for K = 0. Where a sequence is cut does not change its bytes ([`window_start`]).
+pub fn chunk_start(frame: i64, first: i64, k: u32) -> i64 {
+    if k == 0 {
+        return frame;
+    }
+    let len = CHUNK_WINDOWS * (k as i64 + 1);
     first + (frame - first).div_euclid(len) * len
 }
 
-/// Share of a run's fresh samples its keyframe takes, as a multiple of the mean budget: the
-/// keyframe has nothing to reuse.
-pub const KEYFRAME_FACTOR: f64 = 1.0;
+/// Share of a frame's fresh budget drawn in its base pass (what later frames reuse); the rest
+/// goes where the perceptual criterion finds the combined estimate's error visible.
+pub const BASE_SHARE: f64 = 0.5;
 
-/// The fresh budget (spp) of the frame at `position` (0 = the keyframe) of a run of K + 1
-/// frames whose mean fresh budget is `mean`: the keyframe takes [`KEYFRAME_FACTOR`] × the
-/// mean (at most the run's whole budget), the others share the rest evenly; at least 1.
-pub fn frame_budget(mean: f64, position: i64, k: u32) -> f64 {
-    if k == 0 {
-        return mean;
+/// Samples per pixel of a frame's base pass without a budget (the perceptual stop).
+pub const BASE_SPP_UNBUDGETED: u32 = 4;
+
+/// Samples per pixel of the base pass of a frame with fresh budget `budget` spp:
+/// ⌊[`BASE_SHARE`] · budget⌋, at least 1; [`BASE_SPP_UNBUDGETED`] without a budget.
+pub fn base_spp(budget: Option<f64>) -> u32 {
+    match budget {
+        Some(b) => ((BASE_SHARE * b).floor() as u32).max(1),
+        None => BASE_SPP_UNBUDGETED,
     }
-    let run = mean * (k as f64 + 1.0);
-    let key = (KEYFRAME_FACTOR * mean).min(run - k as f64);
-    let b = if position == 0 {
-        key
-    } else {
-        (run - key) / k as f64
-    };
-    b.max(1.0)
 }
 
-/// One frame's fresh samples, compact, with its G-buffer: what later frames reuse.
+/// One frame's base pass, compact, with its G-buffer: what later frames reuse.
 #[derive(Clone, Debug)]
 pub struct FrameSamples {
     /// The frame number.
@@ -160,7 +175,7 @@ impl FrameSamples {
     }
 }
 
-/// The last K frames' fresh samples.
+/// The last K frames' base passes.
 #[derive(Clone, Debug, Default)]
 pub struct ReuseWindow {
     frames: VecDeque<FrameSamples>,

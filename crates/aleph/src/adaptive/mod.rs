@@ -70,7 +70,7 @@ mod allocate;
 mod criterion;
 mod temporal;
 
-pub use temporal::{REUSE_CAP_SHARE, render_reusing};
+pub use temporal::{REUSE_CAP_SHARE, render_base, render_reusing};
 
 use crate::denoise::{Aux, Denoised};
 use crate::display::ToneMapSettings;

@@ -1,8 +1,9 @@
 //! The adaptive loop of a frame that reuses earlier frames' samples ([`crate::reuse`]).
 //!
 //! 1. The window's frames are reprojected into this frame (G-buffer validation).
-//! 2. A first pass of fresh samples everywhere (1 spp, 2 from a budget of 4): every pixel keeps
-//!    a fresh estimate, and the test of each reprojected frame against it drops history where
+//! 2. The base pass: [`crate::reuse::base_spp`] fresh samples everywhere (half the budget),
+//!    drawn before anything is judged, are what later frames reuse ([`render_base`] renders
+//!    it alone for a warm-up frame); every pixel keeps a fresh estimate, and the test of each reprojected frame against it drops history where
 //!    light changed on unchanged surfaces. The test is repeated after every pass with all the
 //!    fresh samples so far, which resolve smaller changes.
 //! 3. Then, pass by pass, the perceptual criterion judges the combined estimate (fresh and
@@ -25,7 +26,7 @@ use super::{
 use crate::film::Film;
 use crate::gbuffer::GBuffer;
 use crate::integrator::{Integrator, Strategy};
-use crate::reuse::{Reprojected, ReuseWindow, Tested};
+use crate::reuse::{FrameSamples, Reprojected, ReuseWindow, Tested, base_spp};
 use crate::sampler::SampleStreams;
 use crate::scene::Scene;
 use crate::velocity::render_velocity;
@@ -48,9 +49,49 @@ pub const FLOOR_SHARE: f64 = 0.75;
 /// Most passes after the first.
 const MAX_PASSES: usize = 8;
 
-/// Renders `scene`'s current frame reusing the samples of the frames in `window`
+/// The base pass of `scene`'s current frame (its G-buffer and [`crate::reuse::base_spp`]
+/// uniform samples per pixel, in two independent half-buffers), as later frames reuse it:
+/// the same samples [`render_reusing`] draws first, so a warm-up frame rendered this way
+/// gives a window equal to the sequence's.
+///
+/// # Errors
+/// As [`render_reusing`].
+pub fn render_base(scene: &Scene, s: &AdaptiveSettings) -> Result<FrameSamples, AdaptiveError> {
+    s.validate()?;
+    let (st, gbuffer) = base_pass(scene, s, &|_| {})?;
+    Ok(FrameSamples::new(scene.frame.index, &st.film, gbuffer))
+}
+
+/// The G-buffer and the base pass's samples in a new loop state.
+fn base_pass(
+    scene: &Scene,
+    s: &AdaptiveSettings,
+    sample_progress: &(dyn Fn(u64) + Sync),
+) -> Result<(LoopState, GBuffer), AdaptiveError> {
+    let gbuffer = GBuffer::render(scene);
+    let mut st = LoopState::new(scene, s)?;
+    let base = vec![base_spp(s.budget_spp); st.film.len()];
+    st.render(
+        scene,
+        &integrator_of(scene),
+        &base,
+        SampleStreams::Halves,
+        sample_progress,
+    );
+    Ok((st, gbuffer))
+}
+
+fn integrator_of(scene: &Scene) -> Integrator {
+    Integrator {
+        max_depth: scene.settings.max_depth,
+        strategy: Strategy::Mis,
+    }
+}
+
+/// Renders `scene`'s current frame reusing the base passes of the frames in `window`
 /// (the perceptual criterion only; see the module docs). `s.budget_spp` is the frame's budget
-/// of *fresh* samples; `None` renders until the converged fraction.
+/// of *fresh* samples; `None` renders until the converged fraction. Returns the frame and its
+/// own base pass, for the window of the frames after it.
 ///
 /// # Errors
 /// As [`super::render_adaptive`]; also [`AdaptiveError::Settings`] for a criterion other than
@@ -61,7 +102,7 @@ pub fn render_reusing(
     window: &ReuseWindow,
     progress: &(dyn Fn(&PassReport) + Sync),
     sample_progress: &(dyn Fn(u64) + Sync),
-) -> Result<AdaptiveResult, AdaptiveError> {
+) -> Result<(AdaptiveResult, FrameSamples), AdaptiveError> {
     s.validate()?;
     if s.criterion != Criterion::Perceptual || s.rows.is_some() {
         return Err(AdaptiveError::Settings(
@@ -69,26 +110,15 @@ pub fn render_reusing(
         ));
     }
     let start = Instant::now();
-    let integrator = Integrator {
-        max_depth: scene.settings.max_depth,
-        strategy: Strategy::Mis,
-    };
+    let integrator = integrator_of(scene);
     let velocity = render_velocity(scene);
-    let gbuffer = GBuffer::render(scene);
+    let (mut st, gbuffer) = base_pass(scene, s, sample_progress)?;
+    let base = FrameSamples::new(scene.frame.index, &st.film, gbuffer.clone());
     let t_reuse = Instant::now();
     let reprojected = window.reproject(scene, &gbuffer);
     let mut reuse_time = t_reuse.elapsed();
-    let mut st = LoopState::new(scene, s)?;
     let n_px = st.film.len();
     let budget_total = s.budget_spp.map(|b| (b * n_px as f64).round() as u64);
-    let first = vec![first_pass_spp(s.budget_spp); n_px];
-    st.render(
-        scene,
-        &integrator,
-        &first,
-        SampleStreams::Halves,
-        sample_progress,
-    );
     let t_test = Instant::now();
     let mut tested = retest(&reprojected, &mut st.film);
     reuse_time += t_test.elapsed();
@@ -155,7 +185,7 @@ pub fn render_reusing(
     };
     let reuse = reuse_report(&st.film, window.len(), reuse_time);
     let converged_fraction = st.passes.last().map_or(0.0, |p| p.converged_fraction);
-    Ok(AdaptiveResult {
+    let result = AdaptiveResult {
         film: st.film,
         stats: st.stats,
         guide_stats: judge.guide_stats(),
@@ -172,7 +202,8 @@ pub fn render_reusing(
         reuse: Some(reuse),
         denoised: None,
         denoise_time: Duration::ZERO,
-    })
+    };
+    Ok((result, base))
 }
 
 /// Tests the reprojected frames against `film`'s fresh samples and makes what is kept the
@@ -212,15 +243,6 @@ fn next_pass(
         fit_to_budget(&mut alloc, &st.film, ratio, rem, cap);
     }
     alloc
-}
-
-/// Fresh samples per pixel of the first pass: 2 from a budget of 4 spp (both half-buffers
-/// fresh), else 1.
-fn first_pass_spp(budget: Option<f64>) -> u32 {
-    match budget {
-        Some(b) if b < 4.0 => 1,
-        _ => 2,
-    }
 }
 
 /// error ← √(error² + bias²), the bias bound of the reuse test in scene cd/m².

@@ -166,7 +166,7 @@ fn render_frame(
 ) -> Result<(AdaptiveResult, Vec<u8>), JobError> {
     let result = match stem.filter(|_| job.output.preview) {
         Some(stem) => preview(scene, settings, look, stem, observer)?,
-        None => adaptive(scene, settings, None, observer)?,
+        None => adaptive(scene, settings, None, observer)?.0,
     };
     let display = deliver_frame(job, scene, settings, look, stem, observer, &result)?;
     Ok((result, display))
@@ -284,19 +284,23 @@ fn deliver_frame(
 }
 
 /// The adaptive loop with the observer's progress: independent of other frames, or reusing
-/// the samples of the frames in `window` ([`crate::adaptive::render_reusing`]).
+/// the base passes of the frames in `window` ([`crate::adaptive::render_reusing`]; then also
+/// the frame's own base pass, for the frames after it).
 fn adaptive(
     scene: &Scene,
     settings: &AdaptiveSettings,
     window: Option<&crate::reuse::ReuseWindow>,
     observer: &dyn Observer,
-) -> Result<AdaptiveResult, JobError> {
+) -> Result<(AdaptiveResult, Option<crate::reuse::FrameSamples>), JobError> {
     let frame = scene.animation.map(|_| scene.frame.index);
     let pass = |p: &PassReport| observer.pass(frame, p);
     let samples = |n| observer.samples(n);
     Ok(match window {
-        Some(w) => crate::adaptive::render_reusing(scene, settings, w, &pass, &samples)?,
-        None => render_adaptive(scene, settings, &pass, &samples)?,
+        Some(w) => {
+            let (r, base) = crate::adaptive::render_reusing(scene, settings, w, &pass, &samples)?;
+            (r, Some(base))
+        }
+        None => (render_adaptive(scene, settings, &pass, &samples)?, None),
     })
 }
 
@@ -312,7 +316,7 @@ fn render_sequence(
     let start = Instant::now();
     let k = job.reuse_window();
     let anim_first = scene.animation.map_or(first, |a| a.frame_start);
-    let warm = crate::reuse::run_start(first, anim_first, k);
+    let warm = crate::reuse::window_start(first, anim_first, k);
     let sequence = Sequence::new(scene, warm, last)?;
     observer.sequence_started(first, last);
     let stem = job.output.stem.as_deref();
@@ -321,34 +325,22 @@ fn render_sequence(
     let mut window = crate::reuse::ReuseWindow::new();
     for frame in sequence.frames() {
         let frame = frame?;
-        let run = crate::reuse::run_start(frame.index, anim_first, k);
-        window.keep_from(run);
-        let (mut settings, look) = job.settings(&frame.scene, Some(frame.adaptation))?;
-        let fstem = stem
-            .filter(|_| frame.index >= first)
-            .map(|s| numbered(s, frame.index));
-        let result = if k == 0 {
-            adaptive(&frame.scene, &settings, None, observer)?
-        } else {
-            settings.budget_spp = job
-                .budget
-                .spp
-                .map(|b| crate::reuse::frame_budget(b, frame.index - run, k));
-            adaptive(&frame.scene, &settings, Some(&window), observer)?
-        };
-        if k > 0 && frame.index < last {
-            let g = result
-                .gbuffer
-                .clone()
-                .expect("a rendered frame has a G-buffer");
-            window.push(crate::reuse::FrameSamples::new(
-                frame.index,
-                &result.film,
-                g,
-            ));
-        }
+        window.keep_from(crate::reuse::window_start(frame.index, anim_first, k));
+        let (settings, look) = job.settings(&frame.scene, Some(frame.adaptation))?;
         if frame.index < first {
+            // A warm-up frame: only the base pass the frames after it reuse.
+            window.push(crate::adaptive::render_base(&frame.scene, &settings)?);
             continue;
+        }
+        let fstem = stem.map(|s| numbered(s, frame.index));
+        let (result, base) = adaptive(
+            &frame.scene,
+            &settings,
+            (k > 0).then_some(&window),
+            observer,
+        )?;
+        if let Some(base) = base.filter(|_| frame.index < last) {
+            window.push(base);
         }
         let display = deliver_frame(
             job,
@@ -488,7 +480,7 @@ fn render_tile(
     let record = part_record(job)?;
     let path = part_path(&stem, i, k, true);
     crate::output::check_output_location(&path)?;
-    let r = adaptive(&scene, &settings, None, observer)?;
+    let (r, _) = adaptive(&scene, &settings, None, observer)?;
     let te = r.threshold.as_deref().zip(r.error.as_deref());
     let part = tile_of(&r.film, (y0, y1), te, i, k, record);
     write_partial(&path, &part)?;

@@ -522,7 +522,7 @@ impl RenderJob {
         if self.split.is_some() {
             return bad(format!(
                 "--reuse-window {k} and --part/--tile exclude each other: a split frame \
-                 renders on its own (a farm splits a reusing sequence into runs of frames)"
+                 renders on its own (a farm splits a reusing sequence into chunks of frames)"
             ));
         }
         Ok(())
