@@ -155,7 +155,7 @@ impl Manifest {
     }
 
     /// The frame ranges of the tasks: each frame alone, or with reuse across frames chunks of
-    /// `aleph::reuse::CHUNK_WINDOWS` × (K + 1) frames (a frame reuses the base passes of the K
+    /// `aleph::reuse::chunk_len` frames (a frame reuses the base passes of the K
     /// frames before it, which a chunk renders first as warm-up; longer chunks spend less of
     /// the farm on warm-up).
     fn frame_ranges(&self) -> Vec<Option<[i64; 2]>> {
@@ -165,7 +165,7 @@ impl Manifest {
                 let mut out = Vec::new();
                 let mut f = a;
                 while f <= b {
-                    let len = aleph::reuse::CHUNK_WINDOWS * (k as i64 + 1);
+                    let len = aleph::reuse::chunk_len(k);
                     let end = (aleph::reuse::chunk_start(f, start, k) + len - 1).min(b);
                     out.push(Some([f, end]));
                     f = end + 1;

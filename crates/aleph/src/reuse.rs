@@ -4,8 +4,8 @@
 //! # What is reused
 //! The *base pass* of each of the last K frames (the window, [`ReuseWindow`]): the first
 //! [`base_spp`] fresh samples of every pixel, drawn uniformly before anything about the frame
-//! was judged, kept per pixel as half-buffer sums. They are reprojected directly into the current frame, each frame
-//! once: pixel p's surface x (the G-buffer's hit at the pixel centre, carried with its
+//! was judged, kept per pixel as half-buffer sums. They are reprojected directly into the
+//! current frame, each frame once: pixel p's surface x (the G-buffer's hit at the pixel centre, carried with its
 //! object) is projected by frame j's camera at frame j's instant, and frame j's sums are
 //! resampled there bilinearly over the neighbours that saw the same surface. Reprojecting every
 //! window frame directly, rather than the previous frame's accumulated image, resamples each
@@ -99,21 +99,27 @@ pub const MAX_WINDOW: u32 = 64;
 /// The first frame whose base pass `frame` reuses: K frames back, not before the animation's
 /// first frame `first`; `frame` itself for K = 0.
 pub fn window_start(frame: i64, first: i64, k: u32) -> i64 {
-    (frame - k as i64).max(first).min(frame)
+    (frame - k as i64).max(first)
 }
 
-/// Windows a farm's chunk of frames spans ([`chunk_start`]): a chunk renders K warm-up base
+/// Windows a farm's chunk of frames spans ([`chunk_len`]): a chunk renders K warm-up base
 /// passes before its first frame, so longer chunks spend less of the farm on them.
 pub const CHUNK_WINDOWS: i64 = 4;
 
-/// The first frame of the farm chunk `frame` belongs to: chunks of
-/// [`CHUNK_WINDOWS`] × (K + 1) frames from the animation's first frame `first`; `frame` itself
-/// for K = 0. Where a sequence is cut does not change its bytes ([`window_start`]).
-pub fn chunk_start(frame: i64, first: i64, k: u32) -> i64 {
+/// Frames in a farm chunk of a window of K: [`CHUNK_WINDOWS`] × (K + 1); 1 for K = 0.
+pub fn chunk_len(k: u32) -> i64 {
     if k == 0 {
-        return frame;
+        1
+    } else {
+        CHUNK_WINDOWS * (k as i64 + 1)
     }
-    let len = CHUNK_WINDOWS * (k as i64 + 1);
+}
+
+/// The first frame of the farm chunk `frame` belongs to: chunks of [`chunk_len`] frames from
+/// the animation's first frame `first`. Where a sequence is cut does not change its bytes
+/// ([`window_start`]).
+pub fn chunk_start(frame: i64, first: i64, k: u32) -> i64 {
+    let len = chunk_len(k);
     first + (frame - first).div_euclid(len) * len
 }
 

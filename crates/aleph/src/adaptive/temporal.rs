@@ -3,8 +3,9 @@
 //! 1. The window's frames are reprojected into this frame (G-buffer validation).
 //! 2. The base pass: [`crate::reuse::base_spp`] fresh samples everywhere (half the budget),
 //!    drawn before anything is judged, are what later frames reuse ([`render_base`] renders
-//!    it alone for a warm-up frame); every pixel keeps a fresh estimate, and the test of each reprojected frame against it drops history where
-//!    light changed on unchanged surfaces. The test is repeated after every pass with all the
+//!    it alone for a warm-up frame); every pixel keeps a fresh estimate, and the test of
+//!    each reprojected frame against it drops history where light changed on unchanged
+//!    surfaces. The test is repeated after every pass with all the
 //!    fresh samples so far, which resolve smaller changes.
 //! 3. Then, pass by pass, the perceptual criterion judges the combined estimate (fresh and
 //!    reused, half-buffer error plus the test's bias bound, against the velocity-aware
