@@ -11,6 +11,7 @@
 //! The reuse code also keeps the material index and how far the view direction may turn
 //! before the radiance the pixel sees changes ([`GBuffer::reuse_angle`]).
 
+use crate::camera::Camera;
 use crate::geometry::Ray;
 use crate::material::MaterialKind;
 use crate::scene::Scene;
@@ -197,8 +198,24 @@ impl GBuffer {
     /// Where pixel `i`'s surface is seen at scene time `t` by `scene`'s camera then (the
     /// surface carried with its object); `None` when it is behind that camera.
     pub fn sight(&self, scene: &Scene, i: usize, t: f32) -> Option<Sight> {
-        let cam = scene.camera_at(t);
-        let here = scene.camera_at(self.time);
+        self.sight_by(
+            scene,
+            i,
+            t,
+            (&scene.camera_at(t), &scene.camera_at(self.time)),
+        )
+    }
+
+    /// [`GBuffer::sight`] with the cameras given: `cam` at scene time `t`, `here` at this
+    /// G-buffer's time (as [`Scene::camera_at`] gives them; a loop over pixels builds them
+    /// once).
+    pub fn sight_by(
+        &self,
+        scene: &Scene,
+        i: usize,
+        t: f32,
+        (cam, here): (&Camera, &Camera),
+    ) -> Option<Sight> {
         match self.seen[i] {
             Seen::Background(d) => Some(Sight {
                 raster: cam.raster_of_direction(d)?,

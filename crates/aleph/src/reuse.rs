@@ -478,10 +478,12 @@ fn scale(h: &mut HistoryPixel, k: f64) {
 /// Frame `f`'s fresh samples resampled at each pixel of the frame whose G-buffer is `g`.
 fn reproject_frame(scene: &Scene, g: &GBuffer, f: &FrameSamples) -> (Vec<HistoryPixel>, Vec<f32>) {
     let cos_normal = NORMAL_TOLERANCE_DEG.to_radians().cos();
+    let t = f.gbuffer.time;
+    let (then, here) = (scene.camera_at(t), scene.camera_at(g.time));
     (0..g.width * g.height)
         .into_par_iter()
         .map(|i| {
-            let Some(sight) = g.sight(scene, i, f.gbuffer.time) else {
+            let Some(sight) = g.sight_by(scene, i, t, (&then, &here)) else {
                 return (HistoryPixel::default(), 0.0);
             };
             if sight.turn > g.reuse_angle[i]
@@ -516,13 +518,61 @@ fn reproject_frame(scene: &Scene, g: &GBuffer, f: &FrameSamples) -> (Vec<History
                     _ => 1.0,
                 }
             };
-            let (bilinear, blur2) = resample(f, sight.raster, &valid);
-            match catmull_rom(f, sight.raster, &valid) {
+            let mut taps = Taps::new(f, sight.raster, valid);
+            let (bilinear, blur2) = resample(f, &mut taps);
+            match catmull_rom(f, &mut taps) {
                 Some(sharp) => (sharp, blur2),
                 None => (bilinear, blur2),
             }
         })
         .collect()
+}
+
+/// The 4 × 4 source pixels around a reprojected position (the Catmull–Rom footprint; the
+/// bilinear one is its inner 2 × 2), each neighbour's share from `valid` evaluated once, when
+/// first asked for.
+struct Taps<F> {
+    /// Position relative to the pixel centres: r − ½.
+    q: Vec2,
+    /// The footprint's inner top-left pixel, ⌊q⌋.
+    x1: i64,
+    y1: i64,
+    w: i64,
+    h: i64,
+    valid: F,
+    /// Shares asked for so far, row-major from (x1 − 1, y1 − 1); NaN: not yet.
+    memo: [f32; 16],
+}
+
+impl<F: Fn(usize) -> f32> Taps<F> {
+    fn new(f: &FrameSamples, r: Vec2, valid: F) -> Taps<F> {
+        let q = r - Vec2::splat(0.5);
+        Taps {
+            q,
+            x1: q.x.floor() as i64,
+            y1: q.y.floor() as i64,
+            w: f.gbuffer.width as i64,
+            h: f.gbuffer.height as i64,
+            valid,
+            memo: [f32::NAN; 16],
+        }
+    }
+
+    /// The source pixel of tap (i, j) ∈ [0, 4)², at (x1 − 1 + i, y1 − 1 + j); `None` outside
+    /// the frame.
+    fn index(&self, i: usize, j: usize) -> Option<usize> {
+        let (x, y) = (self.x1 - 1 + i as i64, self.y1 - 1 + j as i64);
+        (x >= 0 && y >= 0 && x < self.w && y < self.h).then(|| (y * self.w + x) as usize)
+    }
+
+    /// The share `valid` gives tap (i, j), whose source pixel is `k`.
+    fn share(&mut self, i: usize, j: usize, k: usize) -> f32 {
+        let m = &mut self.memo[4 * j + i];
+        if m.is_nan() {
+            *m = (self.valid)(k);
+        }
+        *m
+    }
 }
 
 /// The share of a neighbour's samples kept when the direct-light signatures
@@ -544,18 +594,15 @@ fn direct_light_share(a: f32, b: f32) -> f32 {
     (1.0 - (a - b).abs() / (DIRECT_TOLERANCE * m)).clamp(0.0, 1.0)
 }
 
-/// Bilinear resampling of `f`'s sums at raster position `r` over the neighbours `valid`
-/// accepts (a share in [0, 1] each): the bilinear weights of the accepted neighbours are
-/// renormalised to 1 (nothing under [`MIN_COVERAGE`]) and each neighbour's samples then
-/// count with its share.
+/// Bilinear resampling of `f`'s sums at the taps' position over the inner four taps, each
+/// accepted with its share in [0, 1]: the bilinear weights of the accepted neighbours are
+/// renormalised to 1 (nothing under [`MIN_COVERAGE`]) and each neighbour's samples then count
+/// with its share.
 ///
 /// Also returns a bound on the squared bias of the resampling, Y²: the spread of the accepted
 /// neighbours' mean luminance about their weighted mean beyond what their noise explains,
 /// times 1 − the largest weight (0 when one pixel is taken alone).
-fn resample(f: &FrameSamples, r: Vec2, valid: &impl Fn(usize) -> f32) -> (HistoryPixel, f32) {
-    let (w, h) = (f.gbuffer.width as i64, f.gbuffer.height as i64);
-    let q = r - Vec2::splat(0.5);
-    let (x0, y0) = (q.x.floor(), q.y.floor());
+fn resample<F: Fn(usize) -> f32>(f: &FrameSamples, taps: &mut Taps<F>) -> (HistoryPixel, f32) {
     // A reprojection within 1/1000 pixel of a pixel centre takes that pixel alone, so a still
     // camera reuses every sample unblurred.
     let snap = |t: f32| {
@@ -567,23 +614,23 @@ fn resample(f: &FrameSamples, r: Vec2, valid: &impl Fn(usize) -> f32) -> (Histor
             t
         }
     };
-    let (fx, fy) = (snap(q.x - x0), snap(q.y - y0));
+    let fx = snap(taps.q.x - taps.x1 as f32);
+    let fy = snap(taps.q.y - taps.y1 as f32);
     let mut out = HistoryPixel::default();
     let mut covered = 0f32;
     // (bilinear weight, mean luminance, its noise variance) of the accepted neighbours.
-    let mut taken: Vec<(f32, f64, f64)> = Vec::with_capacity(4);
+    let mut taken = [(0f32, 0f64, 0f64); 4];
+    let mut n_taken = 0;
     for (dx, dy, wt) in [
         (0, 0, (1.0 - fx) * (1.0 - fy)),
         (1, 0, fx * (1.0 - fy)),
         (0, 1, (1.0 - fx) * fy),
         (1, 1, fx * fy),
     ] {
-        let (x, y) = (x0 as i64 + dx, y0 as i64 + dy);
-        if wt <= 0.0 || x < 0 || y < 0 || x >= w || y >= h {
+        let Some(k) = taps.index(1 + dx, 1 + dy).filter(|_| wt > 0.0) else {
             continue;
-        }
-        let k = (y * w + x) as usize;
-        let share = valid(k);
+        };
+        let share = taps.share(1 + dx, 1 + dy, k);
         if share <= 0.0 {
             continue;
         }
@@ -601,18 +648,19 @@ fn resample(f: &FrameSamples, r: Vec2, valid: &impl Fn(usize) -> f32) -> (Histor
         if n > 0.0 {
             let m = luminance(px.sum_even + px.sum_odd) / n;
             let s2 = (px.sum_lum2 / n - m * m).max(0.0);
-            taken.push((wt, m, s2 / n));
+            taken[n_taken] = (wt, m, s2 / n);
+            n_taken += 1;
         }
     }
     if covered < MIN_COVERAGE {
         return (HistoryPixel::default(), 0.0);
     }
     scale(&mut out, 1.0 / covered as f64);
-    (out, resampling_bias2(&taken))
+    (out, resampling_bias2(&taken[..n_taken]))
 }
 
-/// Catmull–Rom (bicubic, Keys 1981 with a = −½) resampling of `f`'s per-pixel means at raster
-/// position `r`, where all 16 taps with a weight are valid and wholly accepted (else `None`:
+/// Catmull–Rom (bicubic, Keys 1981 with a = −½) resampling of `f`'s per-pixel means at the
+/// taps' position, where all 16 taps with a weight are valid and wholly accepted (else `None`:
 /// bilinear then). Bilinear resampling blurs a panned image by up to ¼ px² per axis, which on
 /// the holodeck's grid of thin bright lines cost more than the reused samples saved (relative
 /// RMSE 0.080 against uniform's 0.068 at 32 fresh spp); the cubic keeps the lines. The
@@ -620,10 +668,7 @@ fn resample(f: &FrameSamples, r: Vec2, valid: &impl Fn(usize) -> f32) -> (Histor
 /// half's range over the 4 nearest taps (no ringing, no negative radiance; the halves stay
 /// apart, so their difference still measures the noise), and the result counts as
 /// 1 / Σ w²/n samples: the count of one mean with the combination's noise variance.
-fn catmull_rom(f: &FrameSamples, r: Vec2, valid: &impl Fn(usize) -> f32) -> Option<HistoryPixel> {
-    let (w, h) = (f.gbuffer.width as i64, f.gbuffer.height as i64);
-    let q = r - Vec2::splat(0.5);
-    let (x1, y1) = (q.x.floor() as i64, q.y.floor() as i64);
+fn catmull_rom<F: Fn(usize) -> f32>(f: &FrameSamples, taps: &mut Taps<F>) -> Option<HistoryPixel> {
     let cubic = |t: f32| -> [f32; 4] {
         if t < SNAP_PIXELS {
             return [0.0, 1.0, 0.0, 0.0];
@@ -639,7 +684,8 @@ fn catmull_rom(f: &FrameSamples, r: Vec2, valid: &impl Fn(usize) -> f32) -> Opti
             0.5 * (t3 - t2),
         ]
     };
-    let (wx, wy) = (cubic(q.x - x1 as f32), cubic(q.y - y1 as f32));
+    let wx = cubic(taps.q.x - taps.x1 as f32);
+    let wy = cubic(taps.q.y - taps.y1 as f32);
     let (mut even, mut odd) = (DVec3::ZERO, DVec3::ZERO);
     let (mut var_e, mut var_o, mut s2) = (0.0, 0.0, 0.0);
     let inf = DVec3::splat(f64::INFINITY);
@@ -651,13 +697,9 @@ fn catmull_rom(f: &FrameSamples, r: Vec2, valid: &impl Fn(usize) -> f32) -> Opti
             if wt == 0.0 {
                 continue;
             }
-            let (x, y) = (x1 - 1 + i as i64, y1 - 1 + j as i64);
-            if x < 0 || y < 0 || x >= w || y >= h {
-                return None;
-            }
-            let k = (y * w + x) as usize;
+            let k = taps.index(i, j)?;
             let c = &f.sums[k];
-            if valid(k) < 1.0 || c.n_even <= 0.0 || c.n_odd <= 0.0 {
+            if taps.share(i, j, k) < 1.0 || c.n_even <= 0.0 || c.n_odd <= 0.0 {
                 return None;
             }
             let (ne, no) = (c.n_even as f64, c.n_odd as f64);
