@@ -120,6 +120,27 @@ pub struct PixelAdaptation {
     pub b_rod: f64,
 }
 
+/// What the receptors' responses need of an adaptation, computed once for all the pixels
+/// that share it: the bleaching factors and σⁿ of cones and rods.
+#[derive(Clone, Copy, Debug)]
+struct Receptors {
+    b_cone: f64,
+    b_rod: f64,
+    cone_sigma_n: f64,
+    rod_sigma_n: f64,
+}
+
+impl Receptors {
+    fn of(ad: PixelAdaptation) -> Receptors {
+        Receptors {
+            b_cone: ad.b_cone,
+            b_rod: ad.b_rod,
+            cone_sigma_n: sigma_cone(ad.a_cone).powf(N),
+            rod_sigma_n: sigma_rod(ad.a_rod).powf(N),
+        }
+    }
+}
+
 /// Display-side constants: σ at G_d and the slope S_d of the display response between its
 /// dark and white references.
 #[derive(Clone, Copy, Debug)]
@@ -140,22 +161,25 @@ impl Pattanaik00 {
 
     /// Display value (fraction of display white, per channel) of one pixel.
     pub fn map_pixel(&self, rgb: [f32; 3], ad: PixelAdaptation) -> [f32; 3] {
-        self.map_pixel_with(&self.display_model(), rgb, ad)
+        self.map_pixel_with(&self.display_model(), rgb, &Receptors::of(ad))
     }
 
-    fn map_pixel_with(&self, dm: &DisplayModel, rgb: [f32; 3], ad: PixelAdaptation) -> [f32; 3] {
+    fn map_pixel_with(&self, dm: &DisplayModel, rgb: [f32; 3], r: &Receptors) -> [f32; 3] {
         let (l_cone, l_rod) = cone_rod_luminance(rgb[0], rgb[1], rgb[2]);
         if l_cone <= 0.0 {
             return [0.0; 3];
         }
         let (d_sigma, s_d) = (dm.sigma, dm.s_d);
-        let s_cone = sigma_cone(ad.a_cone);
-        let s_rod = sigma_rod(ad.a_rod);
-        let r_cone = ad.b_cone * response(l_cone, s_cone);
-        let r_rod = ad.b_rod * response(l_rod, s_rod);
+        // Iⁿ once for the response and its slope (bit for bit as [`response`] and
+        // [`diff_response`] compute them).
+        let cone_n = l_cone.max(0.0).powf(N);
+        let rod_n = l_rod.max(0.0).powf(N);
+        let r_cone = r.b_cone * (cone_n / (cone_n + r.cone_sigma_n));
+        let r_rod = r.b_rod * (rod_n / (rod_n + r.rod_sigma_n));
         let r_scene = r_cone + r_rod;
         let (rod_c, cone_c) = (r_rod / r_scene, r_cone / r_scene);
-        let s_color = diff_response(l_cone, s_cone);
+        let s = r.cone_sigma_n;
+        let s_color = s * N * cone_n / (cone_n + s).powi(2);
         let r_display = r_scene.clamp(0.0, 0.99999);
         let l_d = inverse_response(r_display, d_sigma) / self.display_white_cd_m2;
         let strength = s_color / s_d;
@@ -185,7 +209,7 @@ impl Pattanaik00 {
                     b_cone,
                     b_rod,
                 };
-                self.map_pixel_with(&dm, [p[0], p[1], p[2]], ad)
+                self.map_pixel_with(&dm, [p[0], p[1], p[2]], &Receptors::of(ad))
                     .map(|v| v.clamp(0.0, 1.0))
             })
             .collect()
@@ -200,10 +224,11 @@ impl Pattanaik00 {
             b_rod: state.rod_pigment,
         };
         let dm = self.display_model();
+        let r = Receptors::of(ad);
         rgb_cd_m2
             .par_chunks_exact(3)
             .flat_map_iter(|p| {
-                self.map_pixel_with(&dm, [p[0], p[1], p[2]], ad)
+                self.map_pixel_with(&dm, [p[0], p[1], p[2]], &r)
                     .map(|v| v.clamp(0.0, 1.0))
             })
             .collect()
