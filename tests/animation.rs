@@ -118,6 +118,13 @@ fn without_a_shutter_the_edge_is_sharp() {
     assert!(partial <= 1, "{partial} partially lit pixels");
 }
 
+/// The velocity map taken from the G-buffer (as a reusing frame takes it) is the traced one.
+fn same_from_gbuffer(scene: &Scene, v: &aleph::velocity::VelocityMap) {
+    let g = aleph::gbuffer::GBuffer::render(scene);
+    let from_g = aleph::velocity::velocity_from_gbuffer(scene, &g).unwrap();
+    assert_eq!(&from_g, v);
+}
+
 fn vector_at(v: &aleph::velocity::VelocityMap, x: usize, y: usize) -> [f32; 4] {
     let i = 4 * (y * v.width + x);
     [
@@ -137,6 +144,7 @@ fn velocity_of_a_moving_object_is_its_projected_motion() {
         .at_frame(0)
         .unwrap();
     let v = aleph::velocity::render_velocity(&scene).unwrap();
+    same_from_gbuffer(&scene, &v);
     // The emitter moves +0.25 image units per second = per frame; raster x = (X + 1) w / 2, so
     // +0.25 × 16 = 4 pixels per frame to the right. Blender's layout: X,Y = p(t−1) − p(t) =
     // (−4, 0); Z,W = p(t) − p(t+1) = (−4, 0).
@@ -174,6 +182,7 @@ fn velocity_of_a_camera_pan_moves_static_content_the_other_way() {
     );
     let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
     let v = aleph::velocity::render_velocity(&scene).unwrap();
+    same_from_gbuffer(&scene, &v);
     // From t−1 to t content moves left (−8) and down (−4 with the Vector pass's y up), so
     // X,Y = p(t−1) − p(t) = (8, 4) and Z,W = p(t) − p(t+1) = (8, 4).
     for (x, y) in [(10, 10), (20, 25)] {

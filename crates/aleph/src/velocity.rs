@@ -18,6 +18,7 @@
 //! Where the surface point is behind the camera at t ± 1 the corresponding pair is 0.
 
 use crate::camera::Camera;
+use crate::gbuffer::{GBuffer, Seen};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -71,9 +72,8 @@ enum Tracked {
     Infinity(Vec3),
 }
 
-fn raster_at(scene: &Scene, what: &Tracked, t: f32) -> Option<Vec2> {
-    let cam = scene.camera_at(t);
-    let cam: &Camera = &cam;
+/// Where `what` is seen at time `t` by `cam`, the camera then.
+fn raster_at(scene: &Scene, cam: &Camera, what: &Tracked, t: f32) -> Option<Vec2> {
     match what {
         Tracked::Surface { tri, local } => {
             let p = match scene.geometry.transform_at(*tri, t) {
@@ -89,37 +89,59 @@ fn raster_at(scene: &Scene, what: &Tracked, t: f32) -> Option<Vec2> {
 /// Renders the velocity map of the scene's current frame; `None` for a still (no
 /// `[animation]`).
 pub fn render_velocity(scene: &Scene) -> Option<VelocityMap> {
+    let t = scene.frame.time_s as f32;
+    velocity_map(scene, |x, y| {
+        let ray = scene
+            .camera
+            .generate_ray(x as u32, y as u32, Vec2::splat(0.5), t);
+        match scene.geometry.intersect(&ray) {
+            Some(hit) => {
+                let local = match scene.geometry.transform_at(hit.tri, t) {
+                    Some(m) => m.inverse().transform_point3(hit.p),
+                    None => hit.p,
+                };
+                Tracked::Surface {
+                    tri: hit.tri,
+                    local,
+                }
+            }
+            None => Tracked::Infinity(ray.d),
+        }
+    })
+}
+
+/// The velocity map of the frame whose G-buffer is `g` ([`GBuffer::render`] of `scene`):
+/// equal to [`render_velocity`]'s (the G-buffer traced the same rays through the pixel
+/// centres) without tracing them again; `None` for a still.
+pub fn velocity_from_gbuffer(scene: &Scene, g: &GBuffer) -> Option<VelocityMap> {
+    velocity_map(scene, |x, y| match g.seen[y * g.width + x] {
+        Seen::Surface { tri, local, .. } => Tracked::Surface { tri, local },
+        Seen::Background(d) => Tracked::Infinity(d),
+    })
+}
+
+/// The velocity map with each pixel centre's point from `seen(x, y)`.
+fn velocity_map(
+    scene: &Scene,
+    seen: impl Fn(usize, usize) -> Tracked + Sync,
+) -> Option<VelocityMap> {
     let anim = scene.animation?;
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     let t = scene.frame.time_s as f32;
     let dt = (1.0 / anim.fps) as f32;
+    let (before, after) = (scene.camera_at(t - dt), scene.camera_at(t + dt));
     let mut vector = vec![0f32; 4 * w * h];
     vector
         .par_chunks_mut(4 * w)
         .enumerate()
         .for_each(|(y, row)| {
             for x in 0..w {
-                let ray = scene
-                    .camera
-                    .generate_ray(x as u32, y as u32, Vec2::splat(0.5), t);
-                let what = match scene.geometry.intersect(&ray) {
-                    Some(hit) => {
-                        let local = match scene.geometry.transform_at(hit.tri, t) {
-                            Some(m) => m.inverse().transform_point3(hit.p),
-                            None => hit.p,
-                        };
-                        Tracked::Surface {
-                            tri: hit.tri,
-                            local,
-                        }
-                    }
-                    None => Tracked::Infinity(ray.d),
-                };
-                let centre =
-                    raster_at(scene, &what, t).unwrap_or(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                let what = seen(x, y);
+                let centre = raster_at(scene, &scene.camera, &what, t)
+                    .unwrap_or(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
                 let up = |v: Vec2| Vec2::new(v.x, -v.y);
-                let pre = raster_at(scene, &what, t - dt).map(|p| up(p - centre));
-                let post = raster_at(scene, &what, t + dt).map(|p| up(centre - p));
+                let pre = raster_at(scene, &before, &what, t - dt).map(|p| up(p - centre));
+                let post = raster_at(scene, &after, &what, t + dt).map(|p| up(centre - p));
                 let out = &mut row[4 * x..4 * x + 4];
                 if let Some(v) = pre {
                     out[0] = v.x;

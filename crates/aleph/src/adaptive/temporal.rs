@@ -30,7 +30,7 @@ use crate::integrator::{Integrator, Strategy};
 use crate::reuse::{FrameSamples, Reprojected, ReuseWindow, Tested, base_spp};
 use crate::sampler::SampleStreams;
 use crate::scene::Scene;
-use crate::velocity::render_velocity;
+use crate::velocity::velocity_from_gbuffer;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -112,8 +112,8 @@ pub fn render_reusing(
     }
     let start = Instant::now();
     let integrator = integrator_of(scene);
-    let velocity = render_velocity(scene);
     let (mut st, gbuffer) = base_pass(scene, s, sample_progress)?;
+    let velocity = velocity_from_gbuffer(scene, &gbuffer);
     let base = FrameSamples::new(scene.frame.index, &st.film, gbuffer.clone());
     let t_reuse = Instant::now();
     let reprojected = window.reproject(scene, &gbuffer);
@@ -298,7 +298,7 @@ fn water_fill(alloc: &mut Allocation, film: &Film, ratio: &[f32], remaining: u64
         return;
     }
     let cost = |level: f64| -> u64 {
-        open.iter()
+        open.par_iter()
             .map(|&(_, eff, room)| ((level - eff).ceil().max(0.0) as u64).min(room as u64))
             .sum()
     };
@@ -309,6 +309,10 @@ fn water_fill(alloc: &mut Allocation, film: &Film, ratio: &[f32], remaining: u64
     }
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
+        // The interval is down to adjacent doubles: no later step moves `lo`.
+        if mid == lo || mid == hi {
+            break;
+        }
         if cost(mid) <= spare {
             lo = mid
         } else {
