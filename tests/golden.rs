@@ -28,6 +28,10 @@
 //! be sampled cosine-weighted about the normal (issue 36, `aleph::light`): the Mori knob's only
 //! light is its map, so its images differ in rounding alone.
 //!
+//! One case was added when frames where only the camera moves began to level their fresh
+//! samples under `--steer-from` instead of judging them (issue 33): the holodeck pan reusing
+//! frames without `--steer-from 0`.
+//!
 //! Layers added since are not hashed, so that the table keeps guarding the pixels it guarded:
 //! the G-buffer (`Depth.Z`, `Normal.X/Y/Z`, `IndexOB`) and `History.spp` of reuse across
 //! frames; the sequence cases render independent frames (`--reuse-window 0`), as every
@@ -205,6 +209,17 @@ fn sequence_cases() -> Vec<Case> {
             (format!("{name} sequence reusing frames"), vec![c])
         }),
     )
+    .chain(std::iter::once({
+        // Under --steer-from with only the camera moving: levelled, nothing judged.
+        let c = cmd(
+            "scenes/holodeck/pan.toml",
+            "render -o seq --frames 0-2 --reuse-window 2 --resolution 32x24 --spp 8 --min-spp 4",
+        );
+        (
+            "holodeck pan sequence reusing frames, levelled".to_string(),
+            vec![c],
+        )
+    }))
     .collect()
 }
 
@@ -346,6 +361,10 @@ pub const GOLDEN: &[(&str, u64)] = &[
     ("holodeck pan sequence", 0xd281dd8176f5ab67),
     ("cornell-motion sequence reusing frames", 0x0d61869503fd4b61),
     ("holodeck pan sequence reusing frames", 0x43e4ade47209b08a),
+    (
+        "holodeck pan sequence reusing frames, levelled",
+        0xa5e2ef04e0f0b96b,
+    ),
     ("cornell-box parts merged", 0xd3635bdd26f248c8),
     ("cornell-motion frame parts merged", 0xda1ee6b6255f7daf),
     ("cornell-box tiles merged", 0xe29bda9defa0063a),

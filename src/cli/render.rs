@@ -661,6 +661,16 @@ pub(super) fn load_line(scene: &Scene, load: std::time::Duration) -> String {
     )
 }
 
+/// "N spp reused from K earlier frames at P % of pixels".
+fn reused(r: &aleph::adaptive::ReuseReport) -> String {
+    format!(
+        "{:.1} spp reused from {} earlier frames at {:.1} % of pixels",
+        r.mean_history_spp,
+        r.frames,
+        100.0 * r.reused_fraction
+    )
+}
+
 /// The one-line summary of a render.
 pub(super) fn summary_line(
     scene: &Scene,
@@ -687,20 +697,24 @@ pub(super) fn summary_line(
         result.passes.len(),
         match (guide > 0, &result.reuse) {
             (true, Some(r)) => format!(
-                " + {:.1} spp guide; {:.1} spp reused from {} earlier frames at {:.1} % of pixels",
+                " + {:.1} spp guide; {}",
                 guide as f64 / (w * h) as f64,
-                r.mean_history_spp,
-                r.frames,
-                100.0 * r.reused_fraction
+                reused(r)
             ),
+            (false, Some(r)) => format!("; {}", reused(r)),
             (true, None) => format!(" + {:.1} spp guide", guide as f64 / (w * h) as f64),
-            _ => String::new(),
+            (false, None) => String::new(),
         },
         result.stop.describe(),
         match result.threshold {
             Some(_) => format!(
                 "{:.1} % of pixels below threshold",
                 100.0 * result.converged_fraction
+            ),
+            None if result.reuse.is_some() => format!(
+                "only the camera moves, budget under --steer-from {} spp: fresh samples levelled with \
+                 the reused ones, nothing judged",
+                settings.steer_from_spp
             ),
             None if settings.criterion != Criterion::Uniform && !settings.steers() => format!(
                 "budget under --steer-from {} spp: rendered uniformly, nothing judged",

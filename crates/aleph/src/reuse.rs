@@ -245,7 +245,7 @@ pub struct Reprojected {
 }
 
 /// What the test of a [`Reprojected`] window against a frame's fresh samples keeps.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Tested {
     /// Per pixel: the sum over the window's frames, each weighted by the share the test kept
     /// (the film's history).
