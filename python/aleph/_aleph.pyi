@@ -41,7 +41,7 @@ class RenderJob:
         seed: random seed (``--seed``; None: the scene's ``render.seed``).
         max_depth: maximum path depth (``--max-depth``).
         frames: a frame or an inclusive ``(first, last)`` pair (``--frame``/``--frames``).
-        reuse_window: frames whose samples a frame may reuse (``--reuse-window``; None: 7 for
+        reuse_window: frames whose samples a frame may reuse (``--reuse-window``; None: 15 for
             a perceptual sequence, else 0).
         operator: tone operator of the display image (``--tonemap``): ``exposure``, ``tr``,
             ``fpsg``, ``wrp``, ``ptyg``, ``reinhard`` or their papers' names.

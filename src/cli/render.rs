@@ -180,7 +180,7 @@ pub struct SamplingArgs {
     pub no_velocity: bool,
     /// Sequences: each frame reuses the base passes (the first half of the fresh samples) of up
     /// to K frames before it (the perceptual sampler; a frame rendered alone renders those K
-    /// base passes first). 0 renders independent frames. Default: 7 for the perceptual sampler, 0 for the others and with --time.
+    /// base passes first). 0 renders independent frames. Default: 15 for the perceptual sampler, 0 for the others and with --time.
     #[arg(long, value_name = "K", help_heading = "Adaptive sampling")]
     pub reuse_window: Option<u32>,
 }
