@@ -369,6 +369,24 @@ fn mean_sample_luminance(fresh: &[Moments]) -> f64 {
     if n > 0.0 { s / n } else { 0.0 }
 }
 
+/// The kept frames (share > 0) of the highest and the next highest luminance per sample; the
+/// first in `frames` of equals.
+fn two_brightest(frames: &[(f64, f64)], shares: &[f64]) -> (Option<usize>, Option<usize>) {
+    let (mut top, mut next): (Option<usize>, Option<usize>) = (None, None);
+    let brighter = |a: usize, b: Option<usize>| {
+        b.is_none_or(|b| per_sample(frames[a]) > per_sample(frames[b]))
+    };
+    for j in (0..frames.len()).filter(|&j| shares[j] > 0.0) {
+        if brighter(j, top) {
+            next = top;
+            top = Some(j);
+        } else if brighter(j, next) {
+            next = Some(j);
+        }
+    }
+    (top, next)
+}
+
 /// Luminance per sample of a (luminance sum, weight) pair; 0 for no weight.
 fn per_sample((l, w): (f64, f64)) -> f64 {
     if w > 0.0 { l / w } else { 0.0 }
@@ -391,13 +409,12 @@ fn drop_held_outliers(frames: &[(f64, f64)], shares: &mut [f64], fresh: (f64, f6
         }
         // The frame of the highest mean per sample, measured against the rest without it
         // and without the next highest (a second firefly at the pixel would hide the first).
-        let mut kept: Vec<usize> = (0..frames.len()).filter(|&j| shares[j] > 0.0).collect();
-        kept.sort_by(|&a, &b| per_sample(frames[b]).total_cmp(&per_sample(frames[a])));
-        let worst = kept.first().map(|&j| {
+        let (top, next) = two_brightest(frames, shares);
+        let worst = top.map(|j| {
             let (l, w) = frames[j];
             let k = shares[j];
             let (mut rest_sum, mut rest_n) = (sum - k * l, n - k * w);
-            if let Some(&j2) = kept.get(1) {
+            if let Some(j2) = next {
                 rest_sum -= shares[j2] * frames[j2].0;
                 rest_n -= shares[j2] * frames[j2].1;
             }
