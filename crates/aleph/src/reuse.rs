@@ -222,14 +222,23 @@ impl ReuseWindow {
 
     /// Reprojects every held frame into `scene`'s current frame, whose G-buffer is `g`.
     pub fn reproject(&self, scene: &Scene, g: &GBuffer) -> Reprojected {
-        let (frames, blur) = self
+        let (frames, blur): (Vec<Vec<HistoryPixel>>, _) = self
             .frames
             .iter()
             .map(|f| reproject_frame(scene, g, f))
             .unzip();
+        let lum = frames
+            .iter()
+            .map(|f| {
+                f.par_iter()
+                    .map(|p| (luminance(p.sum_even + p.sum_odd), p.weight()))
+                    .collect()
+            })
+            .collect();
         Reprojected {
             frames,
             blur,
+            lum,
             width: g.width,
             height: g.height,
             still_light: !scene.geometry.has_motion(),
@@ -245,6 +254,9 @@ pub struct Reprojected {
     frames: Vec<Vec<HistoryPixel>>,
     /// Per window frame, per pixel: the squared resampling bias bound ([`resample`]), Y².
     blur: Vec<Vec<f32>>,
+    /// Per window frame, per pixel: the resampled luminance sum and its weight (samples),
+    /// computed once for every test.
+    lum: Vec<Vec<(f64, f64)>>,
     width: usize,
     height: usize,
     /// Nothing but the camera moves: light cannot change on a surface, so nothing is tested.
@@ -277,7 +289,7 @@ impl Reprojected {
         let mut bias = vec![0f32; w * h];
         // Per window frame, per pixel: the share of its samples kept.
         let mut shares: Vec<Vec<f64>> = Vec::with_capacity(self.frames.len());
-        for (f, blur) in self.frames.iter().zip(&self.blur) {
+        for ((f, blur), lum) in self.frames.iter().zip(&self.blur).zip(&self.lum) {
             let blurred = |i: usize| blur_share(&f[i], blur[i], &fresh_y[i]);
             if self.still_light {
                 shares.push((0..w * h).into_par_iter().map(blurred).collect());
@@ -285,7 +297,8 @@ impl Reprojected {
             }
             let reused: Vec<Moments> = f
                 .iter()
-                .map(|p| Moments::of(luminance(p.sum_even + p.sum_odd), p.weight(), p.sum_lum2))
+                .zip(lum)
+                .map(|(p, &(l, n))| Moments::of(l, n, p.sum_lum2))
                 .collect();
             let scales: Vec<Pooled> = TEST_RADII
                 .iter()
@@ -323,23 +336,24 @@ impl Reprojected {
         let floor = HELD_FLOOR_SHARE * mean_sample_luminance(fresh_y);
         (0..self.width * self.height)
             .into_par_iter()
-            .map(|i| {
-                let mut s: Vec<f64> = shares.iter().map(|v| v[i]).collect();
-                let held: Vec<(f64, f64)> = self
-                    .frames
-                    .iter()
-                    .map(|f| (luminance(f[i].sum_even + f[i].sum_odd), f[i].weight()))
-                    .collect();
-                let fresh = (fresh_y[i].sum, fresh_y[i].n);
-                drop_held_outliers(&held, &mut s, fresh, floor);
-                let mut h = HistoryPixel::default();
-                for (f, &k) in self.frames.iter().zip(&s) {
-                    if k > 0.0 {
-                        add(&mut h, &f[i], k);
+            .map_init(
+                || (Vec::new(), Vec::new()),
+                |(s, held), i| {
+                    s.clear();
+                    s.extend(shares.iter().map(|v| v[i]));
+                    held.clear();
+                    held.extend(self.lum.iter().map(|l| l[i]));
+                    let fresh = (fresh_y[i].sum, fresh_y[i].n);
+                    drop_held_outliers(held, s, fresh, floor);
+                    let mut h = HistoryPixel::default();
+                    for (f, &k) in self.frames.iter().zip(s.iter()) {
+                        if k > 0.0 {
+                            add(&mut h, &f[i], k);
+                        }
                     }
-                }
-                h
-            })
+                    h
+                },
+            )
             .collect()
     }
 }
