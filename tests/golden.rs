@@ -14,7 +14,10 @@
 //! base passes of frames 0 and 1; the holodeck's frames 0-2). Both were re-recorded when a
 //! frame came to reuse only the base passes of the K frames before it (a sliding window, no
 //! keyframes), and the three reuse cases again when held fireflies came to be dropped from the
-//! reused frames (`aleph::reuse::HELD_OUTLIER_RATIO`; every other case kept its pixels).
+//! reused frames (`aleph::reuse::HELD_OUTLIER_RATIO`; every other case kept its pixels), and
+//! again when reused samples came to land one by one where their surface points project
+//! instead of resampling pixel means, and a frame to reuse every fresh sample of the K frames
+//! before it (2026-11-25; every other case kept its pixels).
 //!
 //! Every case was re-recorded when Russian roulette moved from bounce 3 to bounce 5 (issue 36,
 //! measured in `crates/aleph/src/integrator.rs`): a deliberate change of every path longer
@@ -360,11 +363,11 @@ pub const GOLDEN: &[(&str, u64)] = &[
     ("scenes/mori-knob/scene.toml converged", 0x011f1c4d4c89c1f3),
     ("cornell-motion sequence", 0x68f09bc5983ac3a6),
     ("holodeck pan sequence", 0xd281dd8176f5ab67),
-    ("cornell-motion sequence reusing frames", 0x5c7838c20b31ac4b),
-    ("holodeck pan sequence reusing frames", 0x34ef26e6a7b5aa79),
+    ("cornell-motion sequence reusing frames", 0xd06623076918cdbd),
+    ("holodeck pan sequence reusing frames", 0x0d6b458de43863c9),
     (
         "holodeck pan sequence reusing frames, levelled",
-        0x8952a6fd361bcfa4,
+        0xae50e5e94a6ec94e,
     ),
     ("cornell-box parts merged", 0xd3635bdd26f248c8),
     ("cornell-motion frame parts merged", 0xda1ee6b6255f7daf),

@@ -49,6 +49,10 @@ fn cornell_sequence(dir: &Path, res: u32, camera: &str, extra: &str) -> PathBuf 
     dir.join("scene.toml")
 }
 
+/// Relative rounding of a reused weight: each window frame's samples at a pixel are summed in
+/// f32 (7 significant digits).
+const F32_ROUNDING: f64 = 1e-6;
+
 const STILL_CAMERA: &str = "position = [0.0, 0.989, 3.883]\nlook_at = [0.0, 0.989, 0.0]";
 
 fn job(scene: &Path, k: u32, spp: f64, frames: [i64; 2]) -> RenderJob {
@@ -139,7 +143,7 @@ fn a_still_camera_reuses_every_earlier_frame_without_bias_when_perception_steers
 }
 
 /// Frames 0–3 of a still Cornell box at 16 fresh spp with K = 7 (`steer_from`: the job's
-/// --steer-from, default 128): frame 3 reuses frames 0–2's base passes, has the reference's
+/// --steer-from, default 128): frame 3 reuses frames 0–2's fresh samples, has the reference's
 /// mean and a smaller error than frame 0. Returns frame 3.
 fn still_camera_frames(steer_from: Option<f64>) -> AdaptiveResult {
     let dir = tempdir();
@@ -150,15 +154,12 @@ fn still_camera_frames(steer_from: Option<f64>) -> AdaptiveResult {
     }
     let keep = run(&j);
     let (f0, f3) = (keep.frame(0), keep.frame(3));
-    // Frame 3 holds frames 0–2's base passes (8 of each frame's 16 fresh samples per pixel),
-    // 24 in all, besides its own 16 (the test against the fresh samples may drop a few
-    // pixels' history by chance).
-    let base = aleph::reuse::base_spp(Some(16.0)) as f64;
-    assert_eq!(base, 8.0);
+    // Frame 3 holds frames 0–2's fresh samples (16 per pixel each), 48 in all, besides its
+    // own 16 (the test against the fresh samples may drop a few pixels' history by chance).
     let r = f3.reuse.unwrap();
     assert_eq!(r.frames, 3);
     assert!(
-        r.mean_history_spp > 0.95 * 3.0 * base && r.mean_history_spp <= 3.0 * base + 1e-9,
+        r.mean_history_spp > 0.95 * 48.0 && r.mean_history_spp <= 48.0 * (1.0 + F32_ROUNDING),
         "{r:?}"
     );
     assert!(f0.reuse.unwrap().mean_history_spp == 0.0);
@@ -169,9 +170,12 @@ fn still_camera_frames(steer_from: Option<f64>) -> AdaptiveResult {
     let z = worst_z(&block_stats(&f3, b), &reference);
     assert!(z < sidak_z(0.01, 16), "worst block z {z}");
     // And its error estimate shrank with the samples: the half-buffer error, summed over the
-    // image, falls about as √(16 / 40) = 0.63 from frame 0 to frame 3 (40 against 16
-    // samples; the sum over 1024 pixels varies by about 3 %, the allocation's unevenness
-    // moves it a little more).
+    // image, falls from frame 0 to frame 3 about as √(16 / 64) = 0.5, the Monte Carlo rate of
+    // 64 against 16 samples (the sum over 1024 pixels varies by about 3 %, the ratio of two
+    // such sums by about 4 %; 0.54 measured levelled), and faster where the reused base
+    // passes, consecutive runs of each pixel's sequences, are stratified (0.43 measured with
+    // the perceptual criterion steering); under 0.3 the half-buffers would no longer measure
+    // the error (one net against two half nets differ by 1.8× in RMS error).
     let err = |r: &AdaptiveResult| -> f64 {
         (0..r.film.len())
             .map(|i| {
@@ -181,7 +185,7 @@ fn still_camera_frames(steer_from: Option<f64>) -> AdaptiveResult {
             .sum()
     };
     let ratio = err(&f3) / err(&f0);
-    assert!((0.5..0.76).contains(&ratio), "error ratio {ratio}");
+    assert!((0.3..0.6).contains(&ratio), "error ratio {ratio}");
     f3
 }
 
@@ -190,14 +194,16 @@ fn the_window_slides_every_frame_keeps_k_base_passes() {
     let dir = tempdir();
     let scene = cornell_sequence(dir.path(), 16, STILL_CAMERA, "");
     let keep = run(&job(&scene, 2, 8.0, [0, 5]));
-    let base = aleph::reuse::base_spp(Some(8.0)) as f64;
+    let budget = 8.0;
     for f in 0..=5 {
-        // No keyframes: from frame 2 on every frame holds the two base passes before it.
+        // No keyframes: from frame 2 on every frame holds the fresh samples of the two frames
+        // before it.
         let r = keep.frame(f).reuse.unwrap();
         let k = f.min(2) as f64;
         assert_eq!(r.frames as f64, k, "frame {f}");
         assert!(
-            r.mean_history_spp >= 0.95 * k * base && r.mean_history_spp <= k * base + 1e-9,
+            r.mean_history_spp >= 0.95 * k * budget
+                && r.mean_history_spp <= k * budget * (1.0 + F32_ROUNDING),
             "frame {f}: {r:?}"
         );
     }
@@ -265,8 +271,9 @@ fn a_pan_reprojects_the_wall_onto_itself_and_samples_what_comes_into_view() {
     let scene = panned_wall(dir.path());
     let keep = run(&job(&scene, 7, 8.0, [0, 3]));
     let f3 = keep.frame(3);
-    // The reused samples alone (frames 0–2, shifted by 0.7–2.1 pixels and resampled) have the
-    // mean of a fresh render of frame 3, away from the right edge that came into view.
+    // The reused samples alone (frames 0–2, shifted by 0.7–2.1 pixels, each landing where its
+    // point of the wall is now) have the mean of a fresh render of frame 3, away from the
+    // right edge that came into view.
     let b = 8;
     let skip = 8;
     let reference: Vec<(f64, f64)> = {
@@ -281,8 +288,9 @@ fn a_pan_reprojects_the_wall_onto_itself_and_samples_what_comes_into_view() {
     let reused = history_blocks(&f3, b, skip);
     let z = worst_z(&reused, &reference);
     assert!(z < sidak_z(0.01, reused.len()), "worst block z {z}");
-    // The rightmost column saw the wall in frame 2 only (its centre lies outside frames 0 and
-    // 1): it reuses less, and the sampler gives it more fresh samples than the rest.
+    // The rightmost column came into view: 0.3 of its footprint was inside frame 2 and none
+    // inside frames 0 and 1, so it reuses nothing (a partly seen pixel would take its samples
+    // from the part seen only), and the sampler gives it more fresh samples than the rest.
     let film = &f3.film;
     let w = 48usize;
     let col = |x: usize| -> (f64, f64) {
@@ -296,13 +304,7 @@ fn a_pan_reprojects_the_wall_onto_itself_and_samples_what_comes_into_view() {
     };
     let (edge_h, edge_f) = col(w - 1);
     let mid_f = (0..w - 4).map(|x| col(x).1).sum::<f64>() / (w - 4) as f64;
-    // Its one neighbour in frame 2 (bilinear weight 0.3, renormalised) is all it reuses: that
-    // pixel's base pass.
-    let from_2 = aleph::reuse::base_spp(Some(8.0)) as f64;
-    assert!(
-        (edge_h - from_2).abs() < 1e-9,
-        "edge reuses {edge_h}, frame 2 gave it {from_2}"
-    );
+    assert_eq!(edge_h, 0.0, "the edge reuses {edge_h} spp");
     assert!(
         edge_f > 1.5 * mid_f,
         "edge takes {edge_f} fresh spp, interior {mid_f}"
@@ -424,7 +426,8 @@ fn view_dependent_surfaces_reuse_nothing_under_a_moving_camera() {
     let (mut glossy, mut diffuse_reused) = (0, 0);
     for i in 0..g.width * g.height {
         let turn = g.sight(&scene, i, t0).map_or(0.0, |s| s.turn);
-        if turn > g.reuse_angle[i] {
+        // A pixel that straddles an edge may reuse the samples of its diffuse part.
+        if turn > g.reuse_angle[i] && !g.edge[i] {
             glossy += 1;
             assert_eq!(f1.film.history_weight(i), 0.0, "pixel {i} turned {turn}");
         } else if f1.film.history_weight(i) > 0.0 {
@@ -432,7 +435,7 @@ fn view_dependent_surfaces_reuse_nothing_under_a_moving_camera() {
         }
     }
     // The glossy spheres and boxes are a good part of the image; the walls are reused.
-    assert!(glossy > 100, "{glossy} view-dependent pixels");
+    assert!(glossy > 50, "{glossy} view-dependent pixels (off edges)");
     assert!(diffuse_reused > 400, "{diffuse_reused} reused pixels");
 }
 

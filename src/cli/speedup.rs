@@ -50,10 +50,37 @@ pub struct SpeedupArgs {
     /// budgets in the sweep that bracket the stop's scores (up to 1024 spp or more).
     #[arg(long)]
     stop: bool,
+    /// Only these samplers besides uniform, which every table compares with (default: every
+    /// one the scene has: variance and perceptual, and for a sequence the perceptual sampler
+    /// without velocity and, with --reuse-window above 0, reuse).
+    #[arg(long, value_enum, value_name = "ARM,…", value_delimiter = ',')]
+    arms: Option<Vec<ArmArg>>,
     #[command(flatten)]
     sampling: SamplingArgs,
     #[command(flatten)]
     tone: ToneArgs,
+}
+
+/// An arm of the sweep, by the name its tables and files give it.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum ArmArg {
+    Uniform,
+    Variance,
+    Perceptual,
+    PerceptualNovelocity,
+    Reuse,
+}
+
+impl From<ArmArg> for Arm {
+    fn from(a: ArmArg) -> Arm {
+        match a {
+            ArmArg::Uniform => Arm::Uniform,
+            ArmArg::Variance => Arm::Variance,
+            ArmArg::Perceptual => Arm::Perceptual,
+            ArmArg::PerceptualNovelocity => Arm::PerceptualNoVelocity,
+            ArmArg::Reuse => Arm::Reuse,
+        }
+    }
 }
 
 pub fn run(args: SpeedupArgs) -> anyhow::Result<ExitCode> {
@@ -107,6 +134,10 @@ fn run_sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::
             .sampling
             .reuse_window
             .unwrap_or(aleph::job::DEFAULT_REUSE_WINDOW),
+        arms: args
+            .arms
+            .as_ref()
+            .map(|a| a.iter().map(|&a| Arm::from(a)).collect()),
     };
     // Every sampler setting but the sampler, budget and display; the luminance scale is the
     // scene's (set by the sweep).

@@ -355,10 +355,39 @@ pub struct SweepSpec {
     /// The reuse arm's window K, frames (the sweep's arms include it for a sequence when
     /// K > 0).
     pub reuse_window: u32,
+    /// Only these arms, besides uniform, which every table compares with (`None`: every arm
+    /// the scene has: the first three for a still, the perceptual sampler without velocity
+    /// for a sequence, reuse for a sequence with K > 0). An arm the scene does not have is an
+    /// error ([`SpeedupError::Frames`]).
+    pub arms: Option<Vec<Arm>>,
     /// Also render and judge the perceptual sampler's own stop (no budget: `aleph render`'s
     /// default, until the converged fraction of pixels is below threshold), written as
     /// [`STOP_IMAGE`].
     pub stop: bool,
+}
+
+/// The arms of a sweep: those of `every` that `asked` names (all of them for `None`), uniform
+/// always first.
+fn chosen_arms(every: &[Arm], asked: Option<&[Arm]>) -> Result<Vec<Arm>, SpeedupError> {
+    let Some(asked) = asked else {
+        return Ok(every.to_vec());
+    };
+    if let Some(a) = asked.iter().find(|a| !every.contains(a)) {
+        return Err(SpeedupError::Frames(format!(
+            "--arms {}: this sweep has no such arm (its arms: {})",
+            a.name(),
+            every
+                .iter()
+                .map(|a| a.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    }
+    Ok(every
+        .iter()
+        .copied()
+        .filter(|a| *a == Arm::Uniform || asked.contains(a))
+        .collect())
 }
 
 /// Name of the stop's display image ([`image_path`]), beside the budgets' `ARM-Bspp`.
@@ -492,19 +521,21 @@ pub fn sweep(
     let sequence = match (frames.first(), frames.last()) {
         (Some(Some(first)), Some(Some(last))) => {
             let start = scene.animation.map_or(*first, |a| a.frame_start);
-            let warm = aleph::reuse::window_start(*first, start, spec.reuse_window);
+            let warm = aleph::reuse::warm_up_start(*first, start, spec.reuse_window);
             Some(Sequence::new(&scene, warm, *last)?)
         }
         _ => None,
     };
     let course = sequence.as_ref().map(Sequence::course);
-    let arms: &[Arm] = if course.is_some() && spec.reuse_window > 0 {
+    let every: &[Arm] = if course.is_some() && spec.reuse_window > 0 {
         &Arm::ALL
     } else if course.is_some() {
         &Arm::ALL[..4]
     } else {
         &Arm::ALL[..3]
     };
+    let arms = chosen_arms(every, spec.arms.as_deref())?;
+    let arms = arms.as_slice();
     let default_op = if course.is_some() {
         Operator::Ptyg
     } else {
@@ -773,8 +804,9 @@ fn render_reused(
     Ok(r)
 }
 
-/// Renders the base passes of the reuse arm's K frames before the first (not judged), so the
-/// sweep's first frame reuses what `aleph render` would.
+/// Renders the reuse arm's warm-up (not judged): the base passes of the K frames before the
+/// K frames before the first, then those K frames whole, so the sweep's first frame reuses
+/// what `aleph render` would ([`aleph::reuse::warm_up_start`]).
 fn warm_up_reuse(
     sequence: &Sequence,
     first: i64,
@@ -783,7 +815,8 @@ fn warm_up_reuse(
     st: &mut SweepState,
 ) -> Result<(), SpeedupError> {
     let (k, start) = st.reuse;
-    for f in aleph::reuse::window_start(first, start, k)..first {
+    let whole_from = aleph::reuse::window_start(first, start, k);
+    for f in aleph::reuse::warm_up_start(first, start, k)..first {
         let ctx = sequence.frame(f)?;
         for (bi, &budget) in spec.budgets.iter().enumerate() {
             let settings = AdaptiveSettings {
@@ -791,8 +824,12 @@ fn warm_up_reuse(
                 budget_spp: Some(budget),
                 ..base.clone()
             };
-            let frame = aleph::adaptive::render_base(&ctx.scene, &settings)?;
-            st.windows[bi].push(frame);
+            if f < whole_from {
+                let frame = aleph::adaptive::render_base(&ctx.scene, &settings)?;
+                st.windows[bi].push(frame);
+            } else {
+                render_reused(&ctx.scene, &settings, budget, st)?;
+            }
         }
     }
     Ok(())

@@ -98,6 +98,15 @@ impl Camera {
         self.raster_of_direction(p - self.position)
     }
 
+    /// Solid angle (sr) of a pixel in direction `d` (any length, in front of the camera): a
+    /// pixel's area on the image plane at unit distance, (2 tan(vfov/2) / height)², times
+    /// cos³ of the angle between `d` and the view axis.
+    pub fn pixel_solid_angle(&self, d: Vec3) -> f32 {
+        let side = 2.0 * self.tan_half_v / self.height as f32;
+        let c = d.normalize_or_zero().dot(self.forward).max(0.0);
+        side * side * c * c * c
+    }
+
     /// Continuous raster position of the direction `d` (a point at infinity), or `None` when it
     /// points behind the image plane.
     pub fn raster_of_direction(&self, d: Vec3) -> Option<Vec2> {

@@ -56,12 +56,10 @@ pub struct Sight {
     pub point: Vec3,
     /// Its shading normal in world space then (zero for the background).
     pub normal: Vec3,
-    /// Angle (radians) between the directions the two cameras see the point from.
+    /// Angle (radians) between the directions the two cameras see the point from, where the
+    /// surface is view-dependent ([`GBuffer::reuse_angle`] finite); 0 elsewhere, where no turn
+    /// matters.
     pub turn: f32,
-    /// The area of surface one pixel covers there over the area it covers here (distance² over
-    /// the cosine to the normal, the pixel's solid angle taken as equal): 1 for the
-    /// background.
-    pub footprint_ratio: f32,
 }
 
 /// The G-buffer of one frame, row-major `width × height` (see the module docs).
@@ -103,6 +101,12 @@ pub struct GBuffer {
     /// Such a pixel's samples mix surfaces in proportions that change with any shift of the
     /// view.
     pub edge: Vec<bool>,
+    /// Per pixel: the 3 × 3 neighbourhood's pixel (its own index or a neighbour's) whose
+    /// surface point is nearest the camera, and whether that neighbourhood spans a step in
+    /// depth (a centre off this pixel's tangent plane by more than [`EDGE_PLANE_TOLERANCE`] of
+    /// its depth, or the background beside a surface): where it does not, one surface (or
+    /// several meeting in a plane) fills the pixel and nothing can be in front of it.
+    pub front: Vec<(u32, bool)>,
 }
 
 /// Distance off a pixel's tangent plane, as a fraction of its depth, at which a neighbour's
@@ -147,6 +151,7 @@ impl GBuffer {
             seen: Vec::with_capacity(w * h),
             direct: Vec::with_capacity(w * h),
             edge: Vec::new(),
+            front: Vec::new(),
         };
         for (t, direct) in texels {
             g.seen.push(t.seen);
@@ -161,7 +166,31 @@ impl GBuffer {
             }
         }
         g.edge = (0..w * h).map(|i| g.straddles_edge(i)).collect();
+        g.front = (0..w * h).map(|i| g.front_of(i)).collect();
         g
+    }
+
+    /// [`GBuffer::front`] of pixel `i`.
+    fn front_of(&self, i: usize) -> (u32, bool) {
+        let (w, h) = (self.width, self.height);
+        let (x, y) = (i % w, i / w);
+        let n = self.normal_at(i);
+        let (mut front, mut step) = (i, false);
+        for yy in y.saturating_sub(1)..(y + 2).min(h) {
+            for xx in x.saturating_sub(1)..(x + 2).min(w) {
+                let k = yy * w + xx;
+                if self.depth[k] < self.depth[front] {
+                    front = k;
+                }
+                step |= if self.is_background(i) || self.is_background(k) {
+                    self.is_background(i) != self.is_background(k)
+                } else {
+                    (self.position[k] - self.position[i]).dot(n).abs()
+                        > EDGE_PLANE_TOLERANCE * self.depth[i]
+                };
+            }
+        }
+        (front as u32, step)
     }
 
     /// Whether pixel `i` straddles an edge (see [`GBuffer::edge`]).
@@ -222,7 +251,6 @@ impl GBuffer {
                 point: d,
                 normal: Vec3::ZERO,
                 turn: 0.0,
-                footprint_ratio: 1.0,
             }),
             Seen::Surface {
                 tri,
@@ -239,22 +267,17 @@ impl GBuffer {
                 let now = self.position[i] - here.position;
                 let then = point - cam.position;
                 let normal = normal.normalize_or_zero();
-                let here_normal = self.normal_at(i).normalize_or_zero();
-                let area =
-                    |v: Vec3, n: Vec3| v.length_squared() / v.normalize_or_zero().dot(n).abs();
-                let footprint_ratio = area(then, normal) / area(now, here_normal);
                 // atan2 of the cross and dot products: exact 0 for equal directions, where
                 // acos of a rounded dot product is not.
-                let turn = now.cross(then).length().atan2(now.dot(then));
+                let turn = if self.reuse_angle[i].is_finite() {
+                    now.cross(then).length().atan2(now.dot(then))
+                } else {
+                    0.0
+                };
                 Some(Sight {
                     raster: cam.raster(point)?,
                     point,
                     normal,
-                    footprint_ratio: if footprint_ratio.is_finite() {
-                        footprint_ratio
-                    } else {
-                        f32::INFINITY
-                    },
                     turn,
                 })
             }
@@ -298,16 +321,8 @@ fn trace_centre(scene: &Scene, ray: &Ray, t: f32) -> Texel {
         ),
         None => (hit.p, hit.ns),
     };
-    let object = if instance == crate::geometry::STATIC_INSTANCE {
-        1
-    } else {
-        instance + 2
-    };
-    let reuse_angle = match scene.materials[material as usize].kind {
-        MaterialKind::Diffuse => f32::INFINITY,
-        MaterialKind::Glossy { alpha } => GLOSSY_TURN_PER_ALPHA * alpha,
-        MaterialKind::Mirror | MaterialKind::Dielectric { .. } => 0.0,
-    };
+    let object = object_index(instance);
+    let reuse_angle = reuse_angle(&scene.materials[material as usize].kind);
     Texel {
         seen: Seen::Surface {
             tri: hit.tri,
@@ -321,6 +336,25 @@ fn trace_centre(scene: &Scene, ray: &Ray, t: f32) -> Texel {
         reuse_angle,
         depth: scene.camera.depth_of(hit.p),
         hit: Some(hit),
+    }
+}
+
+/// `IndexOB` of a surface of instance `instance` (see the module docs).
+pub fn object_index(instance: u32) -> u32 {
+    if instance == crate::geometry::STATIC_INSTANCE {
+        1
+    } else {
+        instance + 2
+    }
+}
+
+/// How far the view of a surface of material `kind` may turn (radians) before its radiance
+/// changes ([`GBuffer::reuse_angle`]).
+pub fn reuse_angle(kind: &MaterialKind) -> f32 {
+    match kind {
+        MaterialKind::Diffuse => f32::INFINITY,
+        MaterialKind::Glossy { alpha } => GLOSSY_TURN_PER_ALPHA * alpha,
+        MaterialKind::Mirror | MaterialKind::Dielectric { .. } => 0.0,
     }
 }
 

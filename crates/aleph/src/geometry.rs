@@ -490,7 +490,13 @@ impl Geometry {
     /// The transform of triangle `tri`'s instance at `time` (`None` for a static triangle).
     #[inline]
     pub fn transform_at(&self, tri: u32, time: f32) -> Option<Affine3A> {
-        let inst = self.tris.instance(tri as usize);
+        self.instance_transform(self.tris.instance(tri as usize), time)
+    }
+
+    /// Instance `inst`'s transform (rest space → world) at `time`; `None` for
+    /// [`STATIC_INSTANCE`].
+    #[inline]
+    pub fn instance_transform(&self, inst: u32, time: f32) -> Option<Affine3A> {
         (inst != STATIC_INSTANCE).then(|| self.instance_of(inst).track.at(time))
     }
 

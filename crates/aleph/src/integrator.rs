@@ -58,6 +58,28 @@ pub struct PathResult {
     pub radiance: Vec3,
     /// Rays traced (closest-hit plus shadow).
     pub rays: u32,
+    /// What the camera ray hit first, for reuse across frames ([`crate::reuse`]).
+    pub first: FirstHit,
+}
+
+/// The first surface a camera ray hit: its triangle and the world-space point at the ray's
+/// time, or, where the ray left the scene, `tri == u32::MAX` and the ray's direction.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FirstHit {
+    /// Triangle index; `u32::MAX` for a miss.
+    pub tri: u32,
+    /// World-space hit point (the unit direction of the ray for a miss).
+    pub at: Vec3,
+}
+
+impl FirstHit {
+    /// A ray that hit nothing, going `d`.
+    pub fn miss(d: Vec3) -> FirstHit {
+        FirstHit {
+            tri: u32::MAX,
+            at: d,
+        }
+    }
 }
 
 /// Largest emitted luminance reported by [`albedo`] (emitters are much brighter than any
@@ -333,12 +355,19 @@ impl Integrator {
         let mut prev_n = Vec3::ZERO;
         let mut eta_scale = 1.0f32;
         let mut depth = 0u32;
+        let mut first = FirstHit::miss(ray.d);
         loop {
             rays += 1;
             let Some(hit) = geo.intersect(&ray) else {
                 l += beta * self.escaped(scene, ray.d, prev_delta, prev_pdf, prev_n);
                 break;
             };
+            if depth == 0 {
+                first = FirstHit {
+                    tri: hit.tri,
+                    at: hit.p,
+                };
+            }
             let tri = hit.tri as usize;
             let material = &scene.materials[geo.tris.material(tri) as usize];
             let wo_world = -ray.d;
@@ -430,6 +459,10 @@ impl Integrator {
                 beta /= q;
             }
         }
-        PathResult { radiance: l, rays }
+        PathResult {
+            radiance: l,
+            rays,
+            first,
+        }
     }
 }

@@ -2,6 +2,7 @@
 
 use crate::film::{Film, PixelStats};
 use crate::integrator::{Integrator, Strategy};
+use crate::reuse::Sample;
 use crate::rng::Rng;
 use crate::sampler::{SampleStreams, Sampler, SobolSampler};
 use crate::scene::SampleGenerator;
@@ -33,24 +34,24 @@ impl std::ops::AddAssign for RenderStats {
     }
 }
 
-/// Takes the next `count` samples (indices `n .. n + count`) of pixel `index` = y·width + x.
+/// Takes the next `count` samples (film indices `n .. n + count`, drawn as samples
+/// `pass.offset + n ..` of the pixel's sequences) of pixel (x, y); with `record`, each sample
+/// is also appended to it ([`crate::reuse::Sample`]). Adds the rays traced and the
+/// non-finite samples to `tally`.
 #[inline]
-#[allow(clippy::too_many_arguments)]
 fn sample_pixel(
     scene: &Scene,
     integrator: &Integrator,
-    seed: u64,
-    x: u32,
-    y: u32,
-    streams: SampleStreams,
-    px: &mut PixelStats,
-    count: u32,
-    rays: &mut u64,
-    nonfinite: &mut u64,
+    pass: &Pass,
+    (x, y): (u32, u32),
+    (px, count): (&mut PixelStats, u32),
+    tally: &mut (u64, u64),
+    mut record: Option<&mut Vec<Sample>>,
 ) {
+    let (seed, streams) = (pass.seed, pass.streams);
     let index = y as u64 * scene.camera.width as u64 + x as u64;
     for _ in 0..count {
-        let n = px.n as u64;
+        let n = pass.offset.wrapping_add(px.n as u64);
         let time = scene.sample_time(seed, index, n);
         let r = match scene.settings.sample_generator {
             SampleGenerator::Sobol => {
@@ -65,14 +66,17 @@ fn sample_pixel(
                 trace(scene, integrator, seed, (x, y), n, time, rng)
             }
         };
-        *rays += r.rays as u64;
+        tally.0 += r.rays as u64;
         let v = if r.radiance.is_finite() {
             r.radiance
         } else {
-            *nonfinite += 1;
+            tally.1 += 1;
             glam::Vec3::ZERO
         };
         px.add(v);
+        if let Some(rec) = record.as_deref_mut() {
+            rec.push(Sample::new(scene, r.first, time, v));
+        }
     }
 }
 
@@ -132,6 +136,55 @@ pub fn render_counts_seeded(
     streams: SampleStreams,
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderStats {
+    let pass = Pass {
+        counts,
+        seed,
+        streams,
+        offset: 0,
+    };
+    render_rows(scene, integrator, film, &pass, false, progress).0
+}
+
+/// As [`render_counts_seeded`], the film's sample n drawn as sample `offset + n` of the
+/// pixel's sequences, and every sample taken returned too, grouped by pixel (row-major) and in
+/// the order taken: what a frame keeps for the frames after it to reuse
+/// ([`crate::reuse::FrameSamples`], whose frames draw consecutive runs of one sequence per
+/// pixel, [`crate::reuse::base_offset`]).
+pub fn render_counts_recorded(
+    scene: &Scene,
+    integrator: &Integrator,
+    film: &mut Film,
+    pass: &Pass,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (RenderStats, Vec<Sample>) {
+    render_rows(scene, integrator, film, pass, true, progress)
+}
+
+/// The samples of one pass: how many per pixel (row-major), the seed, how they are drawn and
+/// the index in the pixel's sequences of the film's sample 0.
+#[derive(Clone, Copy, Debug)]
+pub struct Pass<'a> {
+    /// Samples per pixel, row-major.
+    pub counts: &'a [u32],
+    /// The seed of the sequences.
+    pub seed: u64,
+    /// How the half-buffers' samples are drawn.
+    pub streams: SampleStreams,
+    /// The sequences' index of the film's sample 0 (even: the half-buffers keep their streams).
+    pub offset: u64,
+}
+
+/// The rows of `film` in parallel (see [`render_counts`]); with `record`, every sample is
+/// returned too, grouped by pixel.
+fn render_rows(
+    scene: &Scene,
+    integrator: &Integrator,
+    film: &mut Film,
+    pass: &Pass,
+    record: bool,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (RenderStats, Vec<Sample>) {
+    let counts = pass.counts;
     assert_eq!(counts.len(), film.len());
     assert_eq!(
         (film.width, film.height),
@@ -141,29 +194,37 @@ pub fn render_counts_seeded(
     let rays = AtomicU64::new(0);
     let nonfinite = AtomicU64::new(0);
     let w = film.width as usize;
-    film.pixels
+    let rows: Vec<Vec<Sample>> = film
+        .pixels
         .par_chunks_mut(w)
         .zip(counts.par_chunks(w))
         .enumerate()
-        .for_each(|(y, (row, row_counts))| {
+        .map(|(y, (row, row_counts))| {
             progress(0);
-            let (mut r, mut nf, mut s) = (0u64, 0u64, 0u64);
+            let (mut tally, mut s) = ((0u64, 0u64), 0u64);
+            let mut kept = Vec::new();
+            if record {
+                kept.reserve(row_counts.iter().map(|&c| c as usize).sum());
+            }
             for (x, (px, &c)) in row.iter_mut().zip(row_counts).enumerate() {
-                sample_pixel(
-                    scene, integrator, seed, x as u32, y as u32, streams, px, c, &mut r, &mut nf,
-                );
+                let at = (x as u32, y as u32);
+                let rec = record.then_some(&mut kept);
+                sample_pixel(scene, integrator, pass, at, (px, c), &mut tally, rec);
                 s += c as u64;
             }
-            rays.fetch_add(r, Ordering::Relaxed);
-            nonfinite.fetch_add(nf, Ordering::Relaxed);
+            rays.fetch_add(tally.0, Ordering::Relaxed);
+            nonfinite.fetch_add(tally.1, Ordering::Relaxed);
             progress(s);
-        });
-    RenderStats {
+            kept
+        })
+        .collect();
+    let stats = RenderStats {
         samples: counts.iter().map(|&c| c as u64).sum(),
         rays: rays.into_inner(),
         nonfinite: nonfinite.into_inner(),
         wall: start.elapsed(),
-    }
+    };
+    (stats, if record { rows.concat() } else { Vec::new() })
 }
 
 /// Each pixel's measured cost: the wall time per camera sample, in seconds, of `spp` samples
@@ -183,6 +244,12 @@ pub fn pixel_costs(scene: &Scene, strategy: Strategy, spp: u32) -> Vec<f32> {
     let mut pixels = vec![PixelStats::default(); w * h];
     let mut seconds = vec![0f64; w * h];
     let passes = COST_PASSES.min(spp);
+    let pass = Pass {
+        counts: &[],
+        seed,
+        streams: SampleStreams::Halves,
+        offset: 0,
+    };
     for p in 0..passes {
         let count = spp * (p + 1) / passes - spp * p / passes;
         pixels
@@ -190,21 +257,11 @@ pub fn pixel_costs(scene: &Scene, strategy: Strategy, spp: u32) -> Vec<f32> {
             .zip(seconds.par_chunks_mut(w))
             .enumerate()
             .for_each(|(y, (row, secs))| {
-                let (mut rays, mut nonfinite) = (0u64, 0u64);
+                let mut tally = (0u64, 0u64);
                 for (x, (px, t_px)) in row.iter_mut().zip(secs.iter_mut()).enumerate() {
                     let t = Instant::now();
-                    sample_pixel(
-                        scene,
-                        &integrator,
-                        seed,
-                        x as u32,
-                        y as u32,
-                        SampleStreams::Halves,
-                        px,
-                        count,
-                        &mut rays,
-                        &mut nonfinite,
-                    );
+                    let at = (x as u32, y as u32);
+                    sample_pixel(scene, &integrator, &pass, at, (px, count), &mut tally, None);
                     *t_px += t.elapsed().as_secs_f64();
                 }
             });

@@ -4,31 +4,42 @@
 //! # What is reused
 //! The *base pass* of each of the last K frames (the window, [`ReuseWindow`]): the first
 //! [`base_spp`] fresh samples of every pixel, drawn uniformly before anything about the frame
-//! was judged, kept per pixel as half-buffer sums. They are reprojected directly into the
-//! current frame, each frame once: pixel p's surface x (the G-buffer's hit at the pixel centre, carried with its
-//! object) is projected by frame j's camera at frame j's instant, and frame j's sums are
-//! resampled there bilinearly over the neighbours that saw the same surface. Reprojecting every
-//! window frame directly, rather than the previous frame's accumulated image, resamples each
-//! sample once: chained bilinear resampling blurs a panning image a little more every frame
-//! (the variance of the blur grows by up to ¼ px² per step).
+//! was judged, kept sample by sample ([`Sample`]: the surface point the camera ray hit first,
+//! in its object's rest space, the time in the shutter and the radiance). Each window frame is
+//! carried into the current frame directly, each sample once ([`Landing::land`]): its point,
+//! moved with its object to the same time in the current frame's shutter, lands in the pixel
+//! it projects into there. Nothing is resampled from pixel means, so a panned texture keeps
+//! its pixel-thin lines, a pixel that straddles an edge takes the samples of each of its
+//! surfaces where they now fall, and a surface seen closer or more obliquely than before
+//! takes every sample that falls on it (until 2026-11-25 pixel means were resampled
+//! bilinearly, and edges and footprints changed by more than 1.25× were not reused: on Lost
+//! Empire's walkthrough 4.7 of 15 reusable spp were kept).
 //!
-//! A frame is not reused at p when the view of x turned by more than x's surface allows
-//! ([`crate::gbuffer::GBuffer::reuse_angle`]: glossy lobes, mirrors and glass are
-//! view-dependent) or when the surface area a pixel covers there changed by more than
-//! [`MAX_FOOTPRINT_RATIO`] either way (a pixel's mean is its footprint's average). A neighbour
-//! k of frame j is valid for x when
-//! - it saw the same object and material;
-//! - it does not straddle an edge ([`crate::gbuffer::GBuffer::edge`]) unless the view is
-//!   unchanged: its samples mix surfaces in proportions that any shift changes;
-//! - its surface point lies within [`PLANE_TOLERANCE`] · depth of x's tangent plane and its
-//!   normal within [`NORMAL_TOLERANCE_DEG`] of x's;
+//! A sample is reused where it lands when
+//! - the view of its point turned by no more than its material allows
+//!   ([`crate::gbuffer::GBuffer::reuse_angle`]: glossy lobes, mirrors and glass are
+//!   view-dependent) and the same side of its surface faces the camera;
+//! - its frame saw all of the pixel it lands in ([`covered_by`]): at a disocclusion's border
+//!   the samples of the part seen before would stand for the whole pixel;
+//! - nothing is in front of it: where the pixel does not straddle an edge and its centre sees
+//!   the sample's surface (same object and material, within [`PLANE_TOLERANCE`] · depth of the
+//!   tangent plane, normals within [`NORMAL_TOLERANCE_DEG`]) that is taken as shown; elsewhere
+//!   a ray from the point to the camera tells;
 //! - in a scene where anything but the camera moves, its direct light
 //!   ([`crate::gbuffer::GBuffer::direct`], the same fixed light samples in every frame) is
-//!   within [`DIRECT_TOLERANCE`] of x's now: a moving shadow or a light uncovered changes it.
-//!   The share kept falls linearly with the change.
+//!   within [`DIRECT_TOLERANCE`] of what it was: a moving shadow or a light uncovered changes
+//!   it. The share kept falls linearly with the change.
 //!
-//! Valid neighbours are weighted bilinearly and renormalised; under [`MIN_COVERAGE`] of the
-//! bilinear weight valid, nothing is reused (a disocclusion).
+//! Each sample counts with the surface area it stands for (its source pixel's footprint shared
+//! among that pixel's samples) over the area a pixel covers there now: a surface seen edge-on
+//! before and face-on now got few samples per area, and a pixel where it meets a surface seen
+//! face-on in both would otherwise take its mean from the denser one (a box's top against its
+//! front: 28 % dark on the Cornell box). A pixel's reused samples from one frame are then a
+//! weighted mean, counted as Kish's effective number of samples.
+//!
+//! Consecutive frames' base passes draw consecutive runs of one sequence per pixel
+//! ([`base_offset`]): where the camera is still, the K reused base passes are stratified as one
+//! render of K times the samples.
 //!
 //! # What is tested
 //! Where only the camera moves, light on a surface cannot change, and nothing more is tested.
@@ -62,10 +73,12 @@
 //! 3 Hz pulse of the displayed mean, which ColorVideoVDP scored below independent frames).
 //! K = 0 gives independent frames.
 
+use crate::camera::Camera;
 use crate::film::{Film, HistoryPixel};
-use crate::gbuffer::GBuffer;
+use crate::gbuffer::{GBuffer, object_index, reuse_angle};
+use crate::integrator::FirstHit;
 use crate::scene::Scene;
-use glam::{DVec3, Vec2};
+use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use std::collections::VecDeque;
 
@@ -83,17 +96,6 @@ pub const NORMAL_TOLERANCE_DEG: f32 = 25.0;
 /// penumbra's neighbours, a step or two apart, keep half or more.
 pub const DIRECT_TOLERANCE: f32 = 0.1;
 
-/// A reprojection within this distance (pixels) of a pixel centre takes that pixel alone.
-pub const SNAP_PIXELS: f32 = 1e-3;
-
-/// Largest change of the surface area one pixel covers (either way) under which a frame is
-/// reused: a pixel's mean is its footprint's average, so a footprint scaled by more averages
-/// the surface's gradients differently (a cut to a closer or more oblique view).
-pub const MAX_FOOTPRINT_RATIO: f32 = 1.25;
-
-/// Least share of the bilinear weight that must be valid for a frame to be reused at a pixel.
-pub const MIN_COVERAGE: f32 = 0.25;
-
 /// z below which a reprojected frame is kept whole.
 pub const Z_ACCEPT: f64 = 1.0;
 
@@ -107,6 +109,15 @@ pub const MAX_WINDOW: u32 = 64;
 /// first frame `first`; `frame` itself for K = 0.
 pub fn window_start(frame: i64, first: i64, k: u32) -> i64 {
     (frame - k as i64).max(first)
+}
+
+/// The first frame that frame `frame` depends on under a window of `k` (the animation's
+/// first frame is `first`): its image reuses all the samples of the K frames before it, whose
+/// later passes were allocated by the base passes of the K frames before each, so a frame
+/// rendered alone first renders the base passes of frames `warm_up_start ..
+/// window_start(frame)` and then the frames `window_start(frame) .. frame` whole (unwritten).
+pub fn warm_up_start(frame: i64, first: i64, k: u32) -> i64 {
+    window_start(window_start(frame, first, k), first, k)
 }
 
 /// Windows a farm's chunk of frames spans ([`chunk_len`]): a chunk renders K warm-up base
@@ -146,45 +157,201 @@ pub fn base_spp(budget: Option<f64>) -> u32 {
     }
 }
 
-/// One frame's base pass, compact, with its G-buffer: what later frames reuse.
+/// One camera sample kept for reuse: the surface its ray hit first, carried with that
+/// surface's object, when in the shutter, and its radiance. 32 bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sample {
+    /// The triangle the camera ray hit first; `u32::MAX` where the ray left the scene.
+    pub tri: u32,
+    /// The hit point at the sample's time in the rest space of the triangle's object (world
+    /// space for static geometry); the ray's unit direction for a miss.
+    pub at: Vec3,
+    /// The sample's radiance, W·sr⁻¹·m⁻² (zero for a non-finite sample, as the film counts it).
+    pub rgb: Vec3,
+    /// The sample's time less its frame's instant, seconds (0 without motion blur): it lands
+    /// in a later frame as taken at the same point of that frame's shutter.
+    pub dt: f32,
+}
+
+impl Sample {
+    /// The sample whose camera ray at scene time `time` hit `first` and carried `rgb`.
+    pub fn new(scene: &Scene, first: FirstHit, time: f32, rgb: Vec3) -> Sample {
+        let moving = (first.tri != u32::MAX)
+            .then(|| scene.geometry.transform_at(first.tri, time))
+            .flatten();
+        let at = moving.map_or(first.at, |m| m.inverse().transform_point3(first.at));
+        Sample {
+            tri: first.tri,
+            at,
+            rgb,
+            dt: time - scene.frame.time_s as f32,
+        }
+    }
+}
+
+/// The seed of every frame's base pass: the render seed's, the same in every frame (not the
+/// frame's own, [`Scene::frame_seed`]), so that the base passes of consecutive frames draw
+/// consecutive runs of one sequence per pixel ([`base_offset`]).
+pub fn base_seed(scene: &Scene) -> u64 {
+    crate::rng::mix64(scene.settings.seed ^ BASE_SEED_KEY)
+}
+
+const BASE_SEED_KEY: u64 = 0x9E37_79B9_7F4A_7C15;
+
+/// The index in its pixel's sequences of frame `frame`'s first base-pass sample, for a base
+/// pass of `spp` samples: frame f takes samples f·s .. f·s + spp with s = `spp` rounded up to
+/// even (each half-buffer keeps its stream). The K base passes a frame reuses are then one
+/// run of K·s consecutive samples of each pixel's sequences, stratified as one render's are:
+/// where the camera is still, the window is worth as many samples of one render (drawn from
+/// sequences of their own, frame by frame, they were worth half as many on Lost Empire's
+/// textured terrain: relative MSE of a 2-spp frame with 15 reused frames 0.0090, as uniform
+/// at 8 spp, against 0.0039 at 16).
+pub fn base_offset(frame: i64, spp: u32) -> u64 {
+    (frame as u64).wrapping_mul(spp.next_multiple_of(2) as u64)
+}
+
+/// One frame's base pass with its G-buffer: what later frames reuse. Its samples are kept one
+/// by one ([`Sample`]), so that each lands in the pixel of a later frame that sees its surface
+/// point, not resampled from pixel means.
 #[derive(Clone, Debug)]
 pub struct FrameSamples {
     /// The frame number.
     pub index: i64,
     /// The frame's G-buffer.
     pub gbuffer: GBuffer,
-    /// Per pixel: sums of even and odd samples (RGB), their counts, Σ Y².
-    sums: Vec<Compact>,
+    /// Every sample, grouped by pixel (row-major) in the order taken.
+    samples: Vec<Sample>,
+    /// `start[i]..start[i + 1]`: pixel i's samples (pixels + 1 entries); the k-th of them is
+    /// the pixel's sample number k (even k in half-buffer A).
+    start: Vec<u32>,
+    /// Samples per pixel of the base pass: each pixel's first `base` samples.
+    base: u32,
+    /// Per sample: what landing it needs of its frame ([`Seen`]).
+    seen: Vec<Seen>,
 }
 
+/// Per sample of a [`FrameSamples`], what its frame saw of it (kept, so that each of the K
+/// frames it lands in need not look its triangle up again).
 #[derive(Clone, Copy, Debug, Default)]
-struct Compact {
-    even: [f32; 3],
-    odd: [f32; 3],
-    n_even: f32,
-    n_odd: f32,
-    lum2: f32,
+struct Seen {
+    /// Its triangle's unit normal from the winding, in the rest space of its object.
+    normal: Vec3,
+    /// The surface area its source pixel covered at its point (m²; a miss: the pixel's solid
+    /// angle, sr), negative where the side facing the camera was the back of the winding
+    /// ([`footprint`]).
+    area: f32,
+    /// Its triangle's material and instance ([`crate::geometry::STATIC_INSTANCE`] for static
+    /// geometry).
+    material: u32,
+    instance: u32,
 }
 
 impl FrameSamples {
-    /// Keeps `film`'s fresh samples (its history is not kept: each frame is reprojected once).
-    pub fn new(index: i64, film: &Film, gbuffer: GBuffer) -> FrameSamples {
-        let sums = film
-            .pixels
-            .iter()
-            .map(|p| Compact {
-                even: p.sum_even.value().as_vec3().to_array(),
-                odd: p.sum_odd.value().as_vec3().to_array(),
-                n_even: p.n_even() as f32,
-                n_odd: p.n_odd() as f32,
-                lum2: p.sum_lum2.value() as f32,
-            })
-            .collect();
-        FrameSamples {
-            index,
-            gbuffer,
-            sums,
+    /// A frame's samples as [`crate::render::render_counts_recorded`] returns them from the
+    /// frame's first pass into `film`.
+    ///
+    /// # Panics
+    /// If `samples` do not match the counts of `film`, or the film did not start at sample 0.
+    pub fn new(scene: &Scene, film: &Film, gbuffer: GBuffer, samples: Vec<Sample>) -> FrameSamples {
+        let mut start = Vec::with_capacity(film.len() + 1);
+        let mut n = 0u32;
+        start.push(0);
+        for p in &film.pixels {
+            assert_eq!(p.first, 0, "a frame's samples start at sample 0");
+            n += p.count();
+            start.push(n);
         }
+        assert_eq!(
+            n as usize,
+            samples.len(),
+            "one recorded sample per sample taken"
+        );
+        let base = film.pixels.first().map_or(0, |p| p.count());
+        assert!(
+            film.pixels.iter().all(|p| p.count() == base),
+            "a base pass takes the same samples in every pixel"
+        );
+        let seen = samples.par_iter().map(|s| footprint(scene, s)).collect();
+        FrameSamples {
+            index: scene.frame.index,
+            gbuffer,
+            samples,
+            start,
+            base,
+            seen,
+        }
+    }
+
+    /// Appends a later pass of `counts[i]` samples in pixel i, as
+    /// [`crate::render::render_counts_recorded`] returns them (grouped by pixel): they follow
+    /// each pixel's samples so far.
+    ///
+    /// # Panics
+    /// If `counts` does not have one entry per pixel or `samples` do not match it.
+    pub fn add_pass(&mut self, scene: &Scene, counts: &[u32], samples: &[Sample]) {
+        assert_eq!(counts.len() + 1, self.start.len());
+        assert_eq!(
+            counts.iter().map(|&c| c as usize).sum::<usize>(),
+            samples.len()
+        );
+        let new_seen: Vec<Seen> = samples.par_iter().map(|s| footprint(scene, s)).collect();
+        let mut merged = Vec::with_capacity(self.samples.len() + samples.len());
+        let mut seen = Vec::with_capacity(merged.capacity());
+        let mut start = Vec::with_capacity(self.start.len());
+        start.push(0u32);
+        let mut at = 0usize;
+        for (i, &c) in counts.iter().enumerate() {
+            let own = self.start[i] as usize..self.start[i + 1] as usize;
+            merged.extend_from_slice(&self.samples[own.clone()]);
+            seen.extend_from_slice(&self.seen[own]);
+            merged.extend_from_slice(&samples[at..at + c as usize]);
+            seen.extend_from_slice(&new_seen[at..at + c as usize]);
+            at += c as usize;
+            start.push(merged.len() as u32);
+        }
+        self.samples = merged;
+        self.seen = seen;
+        self.start = start;
+    }
+
+    /// Samples held.
+    pub fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// Whether it holds no sample.
+    pub fn is_empty(&self) -> bool {
+        self.samples.is_empty()
+    }
+}
+
+/// [`Seen`] of sample `s` of `scene`'s current frame, at the frame's instant: the area is
+/// d² Ω / |cos θ| for a surface at distance d seen at θ from its normal through a pixel of
+/// solid angle Ω, signed as the cosine with the triangle's winding normal; Ω for a miss.
+fn footprint(scene: &Scene, s: &Sample) -> Seen {
+    let cam = &scene.camera;
+    if s.tri == u32::MAX {
+        return Seen {
+            normal: Vec3::ZERO,
+            area: cam.pixel_solid_angle(s.at),
+            material: u32::MAX,
+            instance: crate::geometry::STATIC_INSTANCE,
+        };
+    }
+    let geo = &scene.geometry;
+    let t = scene.frame.time_s as f32;
+    let m = geo.transform_at(s.tri, t);
+    let p = m.map_or(s.at, |m| m.transform_point3(s.at));
+    let normal = triangle_normal(geo, s.tri);
+    let world = m.map_or(normal, |m| normal_to_world(&m, normal));
+    let view = cam.position - p;
+    let cos = world.dot(view.normalize_or_zero());
+    let area = cam.pixel_solid_angle(-view) * view.length_squared() / cos.abs().max(MIN_COSINE);
+    Seen {
+        normal,
+        area: if cos < 0.0 { -area } else { area },
+        material: geo.tris.material(s.tri as usize),
+        instance: geo.tris.instance(s.tri as usize),
     }
 }
 
@@ -222,23 +389,20 @@ impl ReuseWindow {
 
     /// Reprojects every held frame into `scene`'s current frame, whose G-buffer is `g`.
     pub fn reproject(&self, scene: &Scene, g: &GBuffer) -> Reprojected {
-        let (frames, blur): (Vec<Vec<HistoryPixel>>, _) = self
-            .frames
+        let shutter = Shutter::of(scene);
+        let angles: Vec<f32> = scene
+            .materials
             .iter()
-            .map(|f| reproject_frame(scene, g, f))
-            .unzip();
-        let lum = frames
-            .iter()
-            .map(|f| {
-                f.par_iter()
-                    .map(|p| (luminance(p.sum_even + p.sum_odd), p.weight()))
-                    .collect()
-            })
+            .map(|m| reuse_angle(&m.kind))
             .collect();
+        let (base, all): (Vec<_>, Vec<_>) = self
+            .frames
+            .par_iter()
+            .map(|f| splat_frame(scene, g, f, (&shutter, &angles)))
+            .unzip();
         Reprojected {
-            frames,
-            blur,
-            lum,
+            base: Layer::new(base),
+            all: Layer::new(all),
             width: g.width,
             height: g.height,
             still_light: !scene.geometry.has_motion(),
@@ -250,17 +414,78 @@ impl ReuseWindow {
 /// samples).
 #[derive(Clone, Debug)]
 pub struct Reprojected {
-    /// Per window frame, per pixel: the resampled sums (weight 0 where nothing is reused).
-    frames: Vec<Vec<HistoryPixel>>,
-    /// Per window frame, per pixel: the squared resampling bias bound ([`resample`]), Y².
-    blur: Vec<Vec<f32>>,
-    /// Per window frame, per pixel: the resampled luminance sum and its weight (samples),
-    /// computed once for every test.
-    lum: Vec<Vec<(f64, f64)>>,
+    /// The window frames' base passes ([`Reused::Base`]).
+    base: Layer,
+    /// Every sample of the window frames ([`Reused::All`]).
+    all: Layer,
     width: usize,
     height: usize,
     /// Nothing but the camera moves: light cannot change on a surface, so nothing is tested.
     still_light: bool,
+}
+
+/// Which samples of the window's frames: what a frame's fresh samples are allocated by, or
+/// what its image is made of (see the module docs, "The window").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reused {
+    /// Their base passes: each depends on its frame alone, so what a frame's later passes
+    /// depend on stays within the window.
+    Base,
+    /// All their fresh samples, base pass and later passes.
+    All,
+}
+
+/// The window's frames reprojected into the current frame, one set of samples of them.
+#[derive(Clone, Debug, Default)]
+struct Layer {
+    /// Per window frame, per pixel: the samples that landed there (weight 0 where nothing is
+    /// reused).
+    frames: Vec<Vec<Part>>,
+    /// Per window frame, per pixel: the reused luminance sum and its weight (samples),
+    /// computed once for every test.
+    lum: Vec<Vec<(f64, f64)>>,
+}
+
+impl Layer {
+    fn new(frames: Vec<Vec<Part>>) -> Layer {
+        let lum = frames
+            .iter()
+            .map(|f| f.par_iter().map(|p| (p.lum(), p.weight())).collect())
+            .collect();
+        Layer { frames, lum }
+    }
+}
+
+/// One window frame's samples at one pixel, compact: per half-buffer the weighted RGB sum
+/// scaled to its effective count ([`Weighted::part`]), that count, and Σ Y² so scaled.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Part {
+    even: [f32; 3],
+    odd: [f32; 3],
+    n: [f32; 2],
+    lum2: f32,
+}
+
+impl Part {
+    fn weight(&self) -> f64 {
+        (self.n[0] + self.n[1]) as f64
+    }
+
+    /// Luminance of the RGB sum of both halves.
+    fn lum(&self) -> f64 {
+        let s = Vec3::from_array(self.even) + Vec3::from_array(self.odd);
+        crate::math::luminance(s) as f64
+    }
+
+    fn history(&self) -> HistoryPixel {
+        HistoryPixel {
+            sum_even: Vec3::from_array(self.even).as_dvec3(),
+            sum_odd: Vec3::from_array(self.odd).as_dvec3(),
+            n_even: self.n[0] as f64,
+            n_odd: self.n[1] as f64,
+            sum_lum2: self.lum2 as f64,
+        }
+    }
 }
 
 /// What the test of a [`Reprojected`] window against a frame's fresh samples keeps.
@@ -275,10 +500,14 @@ pub struct Tested {
 }
 
 impl Reprojected {
-    /// Tests each reprojected frame against `fresh` (the current frame's fresh samples so far;
-    /// see the module docs): weights it down where they disagree, and bounds the bias of what
-    /// is kept.
-    pub fn test(&self, fresh: &Film) -> Tested {
+    /// Tests each reprojected frame's `reused` samples against `fresh` (the current frame's
+    /// fresh samples so far; see the module docs): weights it down where they disagree, and
+    /// bounds the bias of what is kept.
+    pub fn test(&self, fresh: &Film, reused: Reused) -> Tested {
+        let layer = match reused {
+            Reused::Base => &self.base,
+            Reused::All => &self.all,
+        };
         let (w, h) = (self.width, self.height);
         assert_eq!((w, h), (fresh.width as usize, fresh.height as usize));
         let fresh_y: Vec<Moments> = fresh
@@ -288,17 +517,16 @@ impl Reprojected {
             .collect();
         let mut bias = vec![0f32; w * h];
         // Per window frame, per pixel: the share of its samples kept.
-        let mut shares: Vec<Vec<f64>> = Vec::with_capacity(self.frames.len());
-        for ((f, blur), lum) in self.frames.iter().zip(&self.blur).zip(&self.lum) {
-            let blurred = |i: usize| blur_share(&f[i], blur[i], &fresh_y[i]);
+        let mut shares: Vec<Vec<f64>> = Vec::with_capacity(layer.frames.len());
+        for (f, lum) in layer.frames.iter().zip(&layer.lum) {
             if self.still_light {
-                shares.push((0..w * h).into_par_iter().map(blurred).collect());
+                shares.push(vec![1.0; w * h]);
                 continue;
             }
             let reused: Vec<Moments> = f
                 .iter()
                 .zip(lum)
-                .map(|(p, &(l, n))| Moments::of(l, n, p.sum_lum2))
+                .map(|(p, &(l, n))| Moments::of(l, n, p.lum2 as f64))
                 .collect();
             let scales: Vec<Pooled> = TEST_RADII
                 .iter()
@@ -320,42 +548,75 @@ impl Reprojected {
             let mut share = vec![0f64; w * h];
             for (i, (keep, b)) in verdicts.into_iter().enumerate() {
                 if keep > 0.0 {
-                    share[i] = keep * blurred(i);
+                    share[i] = keep;
                     bias[i] = bias[i].max(b);
                 }
             }
             shares.push(share);
         }
-        let history = self.keep(&shares, &fresh_y);
+        let history = keep(layer, &shares, &fresh_y, (w, h));
         Tested { history, bias }
     }
+}
 
-    /// The film's history: per pixel, the window's frames summed with the shares the test
-    /// kept (`shares[j][i]`), less the held fireflies ([`HELD_OUTLIER_RATIO`]).
-    fn keep(&self, shares: &[Vec<f64>], fresh_y: &[Moments]) -> Vec<HistoryPixel> {
-        let floor = HELD_FLOOR_SHARE * mean_sample_luminance(fresh_y);
-        (0..self.width * self.height)
-            .into_par_iter()
-            .map_init(
-                || (Vec::new(), Vec::new()),
-                |(s, held), i| {
-                    s.clear();
-                    s.extend(shares.iter().map(|v| v[i]));
-                    held.clear();
-                    held.extend(self.lum.iter().map(|l| l[i]));
-                    let fresh = (fresh_y[i].sum, fresh_y[i].n);
-                    drop_held_outliers(held, s, fresh, floor);
-                    let mut h = HistoryPixel::default();
-                    for (f, &k) in self.frames.iter().zip(s.iter()) {
-                        if k > 0.0 {
-                            add(&mut h, &f[i], k);
-                        }
+/// Per pixel, the least mean a held firefly's excess is measured against
+/// ([`drop_held_outliers`]): [`HELD_FLOOR_SHARE`] of the image's mean, or the mean of the
+/// pixel's 3 × 3 neighbourhood (every sample, fresh and reused) where that is more. Each
+/// window frame gives a pixel about one sample: where a pixel-thin bright line crosses the
+/// pixel, a few of them see it, and measured against the pixel's own other samples they looked
+/// like fireflies (the holodeck's grid lines went out); its neighbours along the line have
+/// such samples too, where a caustic path's do not.
+fn outlier_floors(layer: &Layer, fresh_y: &[Moments], (w, h): (usize, usize)) -> Vec<f64> {
+    let floor = HELD_FLOOR_SHARE * mean_sample_luminance(fresh_y);
+    let means: Vec<f64> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (mut sum, mut n) = (fresh_y[i].sum, fresh_y[i].n);
+            for l in &layer.lum {
+                sum += l[i].0;
+                n += l[i].1;
+            }
+            if n > 0.0 { sum / n } else { 0.0 }
+        })
+        .collect();
+    let ones = vec![1.0; w * h];
+    let (sums, counts) = (box_sums(&means, w, h, 1), box_sums(&ones, w, h, 1));
+    sums.iter()
+        .zip(&counts)
+        .map(|(s, c)| (s / c).max(floor))
+        .collect()
+}
+
+/// The film's history: per pixel, the layer's frames summed with the shares the test kept
+/// (`shares[j][i]`), less the held fireflies ([`HELD_OUTLIER_RATIO`]).
+fn keep(
+    layer: &Layer,
+    shares: &[Vec<f64>],
+    fresh_y: &[Moments],
+    size: (usize, usize),
+) -> Vec<HistoryPixel> {
+    let floors = outlier_floors(layer, fresh_y, size);
+    (0..size.0 * size.1)
+        .into_par_iter()
+        .map_init(
+            || (Vec::new(), Vec::new()),
+            |(s, held), i| {
+                s.clear();
+                s.extend(shares.iter().map(|v| v[i]));
+                held.clear();
+                held.extend(layer.lum.iter().map(|l| l[i]));
+                let fresh = (fresh_y[i].sum, fresh_y[i].n);
+                drop_held_outliers(held, s, fresh, floors[i]);
+                let mut h = HistoryPixel::default();
+                for (f, &k) in layer.frames.iter().zip(s.iter()) {
+                    if k > 0.0 {
+                        add(&mut h, &f[i].history(), k);
                     }
-                    h
-                },
-            )
-            .collect()
-    }
+                }
+                h
+            },
+        )
+        .collect()
 }
 
 /// A reused frame whose samples alone raise a pixel's combined mean by more than this many
@@ -441,26 +702,6 @@ fn drop_held_outliers(frames: &[(f64, f64)], shares: &mut [f64], fresh: (f64, f6
             _ => return,
         }
     }
-}
-
-/// The share of a resampled frame kept at a pixel whose resampling bias bound is `blur2`
-/// (Y²): the weight that minimises the mean squared error of the fresh mean (variance
-/// s²/n_fresh, unbiased) combined with this frame's samples (bias² `blur2`), v / (v + b²) with
-/// v = s²/n_fresh, taking the frame's per-sample variance s². Resampling a panned image blurs
-/// it; as fresh samples grow, a blurred history counts less, so reuse never costs the image
-/// more than it gives.
-fn blur_share(h: &HistoryPixel, blur2: f32, fresh: &Moments) -> f64 {
-    let n = h.weight();
-    if blur2 <= 0.0 || n <= 0.0 {
-        return 1.0;
-    }
-    let mean = luminance(h.sum_even + h.sum_odd) / n;
-    let s2 = (h.sum_lum2 / n - mean * mean).max(0.0);
-    let v = s2 / fresh.n.max(1.0);
-    if v <= 0.0 {
-        return 0.0;
-    }
-    v / (v + blur2 as f64)
 }
 
 /// Radii (pixels) of the square neighbourhoods over which fresh and reused luminance are
@@ -592,115 +833,482 @@ fn add(h: &mut HistoryPixel, o: &HistoryPixel, k: f64) {
     h.sum_lum2 += o.sum_lum2 * k;
 }
 
-fn scale(h: &mut HistoryPixel, k: f64) {
-    if k != 1.0 {
-        let mut s = HistoryPixel::default();
-        add(&mut s, h, k);
-        *h = s;
+/// Frame `f`'s samples carried into the frame whose G-buffer is `g`: per pixel of that frame,
+/// the sums of the samples that land in it and still see there the surface they saw
+/// ([`Landing::land`]), each weighted by its direct-light share and the area it stands for;
+/// those of `f`'s base pass, and all of them ([`Reused`]).
+fn splat_frame(
+    scene: &Scene,
+    g: &GBuffer,
+    f: &FrameSamples,
+    (shutter, angles): (&Shutter, &[f32]),
+) -> (Vec<Part>, Vec<Part>) {
+    let then = scene.camera_at(f.gbuffer.time);
+    let cos_normal = NORMAL_TOLERANCE_DEG.to_radians().cos();
+    let covered = covered_by(scene, g, f, (&then, shutter.centre()), cos_normal);
+    let landing = Landing {
+        scene,
+        g,
+        f,
+        then: &then,
+        shutter,
+        cos_normal,
+        angles,
+        covered: &covered,
+    };
+    // Where each sample lands, computed in parallel by source rows, in the samples' order.
+    let w = f.gbuffer.width;
+    let rows: Vec<Vec<Option<Landed>>> = (0..f.gbuffer.height)
+        .into_par_iter()
+        .map(|y| {
+            let (a, b) = (f.start[y * w] as usize, f.start[(y + 1) * w] as usize);
+            let mut out = Vec::with_capacity(b - a);
+            for k in y * w..(y + 1) * w {
+                for n in f.start[k] as usize..f.start[k + 1] as usize {
+                    out.push(landing.land(k, n, &f.samples[n]));
+                }
+            }
+            out
+        })
+        .collect();
+    // Summed in the samples' order: the same bytes for any thread count.
+    let mut all = vec![Weighted::default(); g.width * g.height];
+    let mut base = all.clone();
+    let mut landed = rows.iter().flatten();
+    for k in 0..f.start.len() - 1 {
+        let range = f.start[k] as usize..f.start[k + 1] as usize;
+        // A source pixel's footprint is shared by its samples: all, or those of its base pass.
+        let (n_all, n_base) = (range.len() as f32, f.base as f32);
+        for (n, s) in f.samples[range].iter().enumerate() {
+            if let Some(l) = landed.next().expect("one landing per sample") {
+                let w = l.share * l.area;
+                all[l.pixel as usize].add(s.rgb, n % 2 == 0, w / n_all);
+                if n < f.base as usize {
+                    base[l.pixel as usize].add(s.rgb, n % 2 == 0, w / n_base);
+                }
+            }
+        }
+    }
+    let history = |v: Vec<Weighted>| v.iter().map(Weighted::part).collect();
+    (history(base), history(all))
+}
+
+/// Where a sample lands ([`Landing::land`]): the pixel, the share kept (direct light) and the
+/// area it stands for in pixels of the frame it lands in (its source pixel's footprint there,
+/// to be shared by that pixel's samples).
+#[derive(Clone, Copy, Debug)]
+struct Landed {
+    pixel: u32,
+    share: f32,
+    area: f32,
+}
+
+impl Landed {
+    fn at(pixel: usize, share: f32, area: f32) -> Landed {
+        Landed {
+            pixel: pixel as u32,
+            share,
+            area: area.clamp(1.0 / MAX_AREA_RATIO, MAX_AREA_RATIO),
+        }
     }
 }
 
-/// Frame `f`'s fresh samples resampled at each pixel of the frame whose G-buffer is `g`.
-fn reproject_frame(scene: &Scene, g: &GBuffer, f: &FrameSamples) -> (Vec<HistoryPixel>, Vec<f32>) {
-    let cos_normal = NORMAL_TOLERANCE_DEG.to_radians().cos();
-    let t = f.gbuffer.time;
-    let (then, here) = (scene.camera_at(t), scene.camera_at(g.time));
-    (0..g.width * g.height)
+/// Largest ratio, either way, of the surface area a reused sample stands for to the area the
+/// pixel it lands in covers ([`Landing::land`]); beyond it the weight is clamped, so that a
+/// surface seen edge-on in an earlier frame (few samples, each for a large area) does not let
+/// one sample outweigh the rest.
+pub const MAX_AREA_RATIO: f32 = 8.0;
+
+/// Least |cos| between a surface's normal and the view taken in a footprint's area.
+const MIN_COSINE: f32 = 1e-3;
+
+/// One pixel's landed samples, per half-buffer: Σ w, Σ w², Σ w·RGB and Σ w·Y² (a window
+/// frame gives a pixel tens of samples at most, well within f32).
+#[derive(Clone, Copy, Debug, Default)]
+struct Weighted {
+    w: [f32; 2],
+    w2: [f32; 2],
+    rgb: [Vec3; 2],
+    lum2: [f32; 2],
+}
+
+impl Weighted {
+    fn add(&mut self, rgb: Vec3, even: bool, w: f32) {
+        let h = usize::from(!even);
+        let y = crate::math::luminance(rgb);
+        self.w[h] += w;
+        self.w2[h] += w * w;
+        self.rgb[h] += rgb * w;
+        self.lum2[h] += w * y * y;
+    }
+
+    /// As a [`Part`]: each half's weighted mean with the count of equally weighted samples of
+    /// the same variance, (Σ w)² / Σ w² (Kish's effective sample size).
+    fn part(&self) -> Part {
+        let half = |h: usize| -> (Vec3, f32, f32) {
+            if self.w[h] <= 0.0 {
+                return (Vec3::ZERO, 0.0, 0.0);
+            }
+            let n = self.w[h] * self.w[h] / self.w2[h];
+            let k = n / self.w[h];
+            (self.rgb[h] * k, n, self.lum2[h] * k)
+        };
+        let ((se, ne, le), (so, no, lo)) = (half(0), half(1));
+        Part {
+            even: se.to_array(),
+            odd: so.to_array(),
+            n: [ne, no],
+            lum2: le + lo,
+        }
+    }
+}
+
+/// A rest-space normal `n` under transform `m`: by the inverse transpose (scaled objects),
+/// unit.
+fn normal_to_world(m: &glam::Affine3A, n: Vec3) -> Vec3 {
+    m.matrix3
+        .inverse()
+        .transpose()
+        .mul_vec3(n)
+        .normalize_or_zero()
+}
+
+/// The unit geometric normal (from the winding) of triangle `tri` in its object's rest space.
+fn triangle_normal(geo: &crate::geometry::Geometry, tri: u32) -> Vec3 {
+    let [v0, v1, v2] = geo.tris.positions(tri as usize);
+    (v1 - v0).cross(v2 - v0).normalize_or_zero()
+}
+
+/// Per pixel of `g`: whether frame `f` saw the whole of the pixel's footprint as it looks now,
+/// so that the samples of `f` landing in it are spread over all of it. A pixel part of which
+/// `f` did not see (a disocclusion's border: its samples would all come from the part seen,
+/// whose radiance may differ, as a box's front face from its top), or saw from too far round
+/// (a glossy door frame beside a dark wall, whose samples alone would be kept: the holodeck's
+/// door frame showed a row of dark pixels), takes none of them. Taken as:
+/// the surface points at the centres of the pixel and its 8 neighbours (inside the image),
+/// carried to `f`'s instant, were each seen by `f` ([`seen_by`]). `cams` are the cameras at
+/// `f`'s instant and at `g`'s.
+fn covered_by(
+    scene: &Scene,
+    g: &GBuffer,
+    f: &FrameSamples,
+    cams: (&Camera, &Camera),
+    cos_normal: f32,
+) -> Vec<bool> {
+    let (w, h) = (g.width, g.height);
+    let seen: Vec<bool> = (0..w * h)
+        .into_par_iter()
+        .map(|i| seen_by(scene, g, i, f, cams, cos_normal))
+        .collect();
+    (0..w * h)
         .into_par_iter()
         .map(|i| {
-            let Some(sight) = g.sight_by(scene, i, t, (&then, &here)) else {
-                return (HistoryPixel::default(), 0.0);
-            };
-            if sight.turn > g.reuse_angle[i]
-                || !(1.0 / MAX_FOOTPRINT_RATIO..=MAX_FOOTPRINT_RATIO)
-                    .contains(&sight.footprint_ratio)
-            {
-                return (HistoryPixel::default(), 0.0);
-            }
-            let moved = sight.raster.distance(Vec2::new(
-                (i % g.width) as f32 + 0.5,
-                (i / g.width) as f32 + 0.5,
-            )) > SNAP_PIXELS;
-            let valid = |k: usize| -> f32 {
-                let o = &f.gbuffer;
-                if o.object[k] != g.object[i] || o.material[k] != g.material[i] {
-                    return 0.0;
-                }
-                if moved && o.edge[k] {
-                    return 0.0;
-                }
-                if g.is_background(i) {
-                    return 1.0;
-                }
-                let off = (o.position[k] - sight.point).dot(sight.normal).abs();
-                if off > PLANE_TOLERANCE * g.depth[i]
-                    || o.normal_at(k).dot(sight.normal) < cos_normal
-                {
-                    return 0.0;
-                }
-                match (g.direct.get(i), o.direct.get(k)) {
-                    (Some(&a), Some(&b)) => direct_light_share(a, b),
-                    _ => 1.0,
-                }
-            };
-            let mut taps = Taps::new(f, sight.raster, valid);
-            let (bilinear, blur2) = resample(f, &mut taps);
-            match catmull_rom(f, &mut taps) {
-                Some(sharp) => (sharp, blur2),
-                None => (bilinear, blur2),
-            }
+            let (x, y) = (i % w, i / w);
+            let ys = y.saturating_sub(1)..(y + 2).min(h);
+            ys.flat_map(|yy| (x.saturating_sub(1)..(x + 2).min(w)).map(move |xx| yy * w + xx))
+                .all(|k| seen[k])
         })
         .collect()
 }
 
-/// The 4 × 4 source pixels around a reprojected position (the Catmull–Rom footprint; the
-/// bilinear one is its inner 2 × 2), each neighbour's share from `valid` evaluated once, when
-/// first asked for.
-struct Taps<F> {
-    /// Position relative to the pixel centres: r − ½.
-    q: Vec2,
-    /// The footprint's inner top-left pixel, ⌊q⌋.
-    x1: i64,
-    y1: i64,
-    w: i64,
-    h: i64,
-    valid: F,
-    /// Shares asked for so far, row-major from (x1 − 1, y1 − 1); NaN: not yet.
-    memo: [f32; 16],
+/// Whether frame `f` saw the surface point at the centre of `g`'s pixel `i` as it looks now:
+/// the view of it turned by no more than its material allows, and carried to `f`'s instant it
+/// projects into a pixel of `f` that, or one of whose 4-neighbours, saw the same object and
+/// material there (within [`PLANE_TOLERANCE`] · depth of its tangent plane, normals within
+/// [`NORMAL_TOLERANCE_DEG`]); the background where `f` saw the background.
+fn seen_by(
+    scene: &Scene,
+    g: &GBuffer,
+    i: usize,
+    f: &FrameSamples,
+    (then, here): (&Camera, &Camera),
+    cos_normal: f32,
+) -> bool {
+    let o = &f.gbuffer;
+    let Some(sight) = g.sight_by(scene, i, o.time, (then, here)) else {
+        return false;
+    };
+    // A view-dependent surface seen from too far round is not reusable (see `land`).
+    if sight.turn > g.reuse_angle[i] {
+        return false;
+    }
+    let (x, y) = (sight.raster.x.floor(), sight.raster.y.floor());
+    if x < 0.0 || y < 0.0 || x >= o.width as f32 || y >= o.height as f32 {
+        return false;
+    }
+    let k = y as usize * o.width + x as usize;
+    let (kx, ky) = (k % o.width, k / o.width);
+    let around = [
+        Some(k),
+        (kx > 0).then(|| k - 1),
+        (kx + 1 < o.width).then(|| k + 1),
+        (ky > 0).then(|| k - o.width),
+        (ky + 1 < o.height).then(|| k + o.width),
+    ];
+    around.into_iter().flatten().any(|c| {
+        if o.object[c] != g.object[i] || o.material[c] != g.material[i] {
+            return false;
+        }
+        if g.is_background(i) {
+            return true;
+        }
+        (o.position[c] - sight.point).dot(sight.normal).abs() <= PLANE_TOLERANCE * o.depth[c]
+            && o.normal_at(c).dot(sight.normal) >= cos_normal
+    })
 }
 
-impl<F: Fn(usize) -> f32> Taps<F> {
-    fn new(f: &FrameSamples, r: Vec2, valid: F) -> Taps<F> {
-        let q = r - Vec2::splat(0.5);
-        Taps {
-            q,
-            x1: q.x.floor() as i64,
-            y1: q.y.floor() as i64,
-            w: f.gbuffer.width as i64,
-            h: f.gbuffer.height as i64,
-            valid,
-            memo: [f32::NAN; 16],
+/// What a sample of frame `f` needs to land in the frame whose G-buffer is `g`.
+struct Landing<'a> {
+    scene: &'a Scene,
+    g: &'a GBuffer,
+    f: &'a FrameSamples,
+    /// The camera at `f`'s instant, and over the shutter of `g`'s frame.
+    then: &'a Camera,
+    shutter: &'a Shutter,
+    cos_normal: f32,
+    /// Per material: how far the view may turn ([`reuse_angle`]).
+    angles: &'a [f32],
+    /// Per pixel of `g`: whether `f` saw all of it ([`covered_by`]).
+    covered: &'a [bool],
+}
+
+/// Cameras over the shutter of the frame samples land in, a sample taken `dt` after its own
+/// frame's instant projecting as the camera was `dt` after this frame's ([`Sample::dt`]).
+pub struct Shutter {
+    /// The frame's instant, s.
+    time: f32,
+    /// Cameras at `time + first + k · step`, k = 0 ..= [`SHUTTER_CAMERAS`] (one, at `time`,
+    /// without motion blur).
+    cams: Vec<Camera>,
+    first: f32,
+    step: f32,
+}
+
+/// Intervals the shutter is cut into for [`Shutter`]: a sample projects by the two cameras
+/// about its time, its raster position interpolated between them (the camera's motion within
+/// 1/16 of a shutter taken as straight).
+pub const SHUTTER_CAMERAS: usize = 16;
+
+impl Shutter {
+    /// The cameras over the shutter of `scene`'s current frame.
+    pub fn of(scene: &Scene) -> Shutter {
+        let fr = &scene.frame;
+        let time = fr.time_s as f32;
+        if !fr.has_motion_blur() || scene.camera_track.is_none() {
+            let cams = vec![scene.camera_at(time).into_owned()];
+            return Shutter {
+                time,
+                cams,
+                first: 0.0,
+                step: 1.0,
+            };
+        }
+        let first = (fr.open_s - fr.time_s) as f32;
+        let step = ((fr.close_s - fr.open_s) / SHUTTER_CAMERAS as f64) as f32;
+        let cams = (0..=SHUTTER_CAMERAS)
+            .map(|k| scene.camera_at(time + first + k as f32 * step).into_owned())
+            .collect();
+        Shutter {
+            time,
+            cams,
+            first,
+            step,
         }
     }
 
-    /// The source pixel of tap (i, j) ∈ [0, 4)², at (x1 − 1 + i, y1 − 1 + j); `None` outside
-    /// the frame.
-    fn index(&self, i: usize, j: usize) -> Option<usize> {
-        let (x, y) = (self.x1 - 1 + i as i64, self.y1 - 1 + j as i64);
-        (x >= 0 && y >= 0 && x < self.w && y < self.h).then(|| (y * self.w + x) as usize)
+    /// The camera at the frame's instant.
+    fn centre(&self) -> &Camera {
+        &self.cams[self.cams.len() / 2]
     }
 
-    /// The share `valid` gives tap (i, j), whose source pixel is `k`.
-    fn share(&mut self, i: usize, j: usize, k: usize) -> f32 {
-        let m = &mut self.memo[4 * j + i];
-        if m.is_nan() {
-            *m = (self.valid)(k);
+    /// The cameras about `dt` after the frame's instant and the weight of the second.
+    fn about(&self, dt: f32) -> (&Camera, &Camera, f32) {
+        if self.cams.len() == 1 {
+            return (&self.cams[0], &self.cams[0], 0.0);
         }
-        *m
+        let x = ((dt - self.first) / self.step).clamp(0.0, SHUTTER_CAMERAS as f32);
+        let k = (x.floor() as usize).min(SHUTTER_CAMERAS - 1);
+        (&self.cams[k], &self.cams[k + 1], x - k as f32)
+    }
+
+    /// The camera's position `dt` after the frame's instant.
+    fn position(&self, dt: f32) -> Vec3 {
+        let (a, b, w) = self.about(dt);
+        a.position.lerp(b.position, w)
+    }
+
+    /// Raster position of world point `p` (or, with `direction`, of the direction `p`) seen at
+    /// `dt` after the frame's instant; `None` behind the camera.
+    fn raster(&self, p: Vec3, dt: f32, direction: bool) -> Option<Vec2> {
+        let project = |c: &Camera| {
+            if direction {
+                c.raster_of_direction(p)
+            } else {
+                c.raster(p)
+            }
+        };
+        let (a, b, w) = self.about(dt);
+        if w == 0.0 {
+            return project(a);
+        }
+        let (a, b) = (project(a)?, project(b)?);
+        Some(a + (b - a) * w)
     }
 }
 
-/// The share of a neighbour's samples kept when the direct-light signatures
+impl Landing<'_> {
+    /// The pixel of `g` where sample `s` of `f`'s pixel `k` lands and the share of it kept
+    /// there; `None` where it is not reused. A sample lands where its surface point, carried
+    /// with its object to `g`'s instant, projects; it is reused when
+    /// - the view of the point turned by no more than its material allows
+    ///   ([`crate::gbuffer::GBuffer::reuse_angle`]: glossy lobes, mirrors and glass are
+    ///   view-dependent);
+    /// - the pixel's centre, or for a pixel that straddles an edge one of its 4-neighbours'
+    ///   centres, sees the same object and material, within [`PLANE_TOLERANCE`] · depth of its
+    ///   tangent plane and with a normal within [`NORMAL_TOLERANCE_DEG`] of the sample's
+    ///   triangle's (so a point now hidden behind another surface is not reused);
+    /// - in a scene where anything but the camera moves, its direct light there
+    ///   ([`crate::gbuffer::GBuffer::direct`]) is within [`DIRECT_TOLERANCE`] of what it was
+    ///   at `k` (the share falls linearly with the change; nothing where `k`'s centre saw
+    ///   another surface than the sample, whose direct light is then unknown).
+    ///
+    /// A miss lands where its direction projects and is reused where the background is seen.
+    fn land(&self, k: usize, n: usize, s: &Sample) -> Option<Landed> {
+        let (g, geo) = (self.g, &self.scene.geometry);
+        let t = self.shutter.time + s.dt;
+        if s.tri == u32::MAX {
+            let i = self.pixel(self.shutter.raster(s.at, s.dt, true)?)?;
+            if !self.covered[i] {
+                return None;
+            }
+            let eye = self.shutter.position(s.dt);
+            let shown = g.is_background(i) && !g.front[i].1;
+            if !(shown || geo.unoccluded(eye, s.at, f32::INFINITY, t)) {
+                return None;
+            }
+            let area = self.f.seen[n].area / self.here().pixel_solid_angle(s.at);
+            return Some(Landed::at(i, 1.0, area));
+        }
+        let seen = self.f.seen[n];
+        let now = geo.instance_transform(seen.instance, t);
+        let p = now.map_or(s.at, |m| m.transform_point3(s.at));
+        let i = self.pixel(self.shutter.raster(p, s.dt, false)?)?;
+        if !self.covered[i] {
+            return None;
+        }
+        let material = seen.material;
+        let normal = now.map_or(seen.normal, |m| normal_to_world(&m, seen.normal));
+        let eye = self.shutter.position(s.dt);
+        let view = eye - p;
+        let cos_now = normal.dot(view.normalize_or_zero());
+        // The side seen then is the side seen now (a thin wall's other side is another surface).
+        let area_then = seen.area;
+        if cos_now * area_then <= 0.0 {
+            return None;
+        }
+        let angle = self.angles[material as usize];
+        if angle < f32::INFINITY {
+            let before = geo.instance_transform(seen.instance, self.f.gbuffer.time);
+            let view_then = self.then.position - before.map_or(s.at, |m| m.transform_point3(s.at));
+            // atan2 of the cross and dot products: exact 0 for equal directions.
+            if view.cross(view_then).length().atan2(view.dot(view_then)) > angle {
+                return None;
+            }
+        }
+        // The point at the frame's instant, when the G-buffer saw its surface.
+        let p_inst = match now {
+            Some(_) if s.dt != 0.0 => geo
+                .instance_transform(seen.instance, g.time)
+                .map_or(p, |m| m.transform_point3(s.at)),
+            _ => p,
+        };
+        let object = object_index(seen.instance);
+        let sees = |c: usize| {
+            g.object[c] == object
+                && g.material[c] == material
+                && (p_inst - g.position[c]).dot(g.normal_at(c)).abs()
+                    <= PLANE_TOLERANCE * g.depth[c]
+                && normal.dot(g.normal_at(c)) >= self.cos_normal
+        };
+        // Where no step in depth is near, the sample is shown if it lies on the surface a
+        // centre there sees (one of several meeting in a plane at a change of material);
+        // beside a step, if it lies on the nearest surface there. Else (a surface behind, or
+        // one no centre sees) a ray from the point to the camera tells.
+        let (front, step) = g.front[i];
+        let shown = if step {
+            sees(front as usize)
+        } else {
+            sees(i) || g.edge[i] && self.neighbours(i).into_iter().flatten().any(sees)
+        };
+        if !shown {
+            let o = crate::geometry::offset_origin(p, normal, view);
+            let (d, dist) = ((eye - o).normalize_or_zero(), (eye - o).length());
+            if !geo.unoccluded(o, d, dist, t) {
+                return None;
+            }
+        }
+        let share = self.direct_share(k, i, (material, object), &sees);
+        // The surface area the sample stands for (its source pixel's footprint, shared by that
+        // pixel's samples) over the area a pixel covers there now.
+        let here = self.here().pixel_solid_angle(-view) * view.length_squared()
+            / cos_now.abs().max(MIN_COSINE);
+        let area = area_then.abs() / here;
+        (share > 0.0).then(|| Landed::at(i, share, area))
+    }
+
+    /// The camera at the frame's instant.
+    fn here(&self) -> &Camera {
+        self.shutter.centre()
+    }
+
+    /// The share of a sample of `f`'s pixel `k` on a surface of `(material, object)` kept
+    /// where it lands, at `g`'s pixel `i`, for the change of its direct light (see
+    /// [`Landing::land`]); `sees(c)`: whether `g`'s pixel `c` sees the sample's surface.
+    fn direct_share(
+        &self,
+        k: usize,
+        i: usize,
+        (material, object): (u32, u32),
+        sees: &dyn Fn(usize) -> bool,
+    ) -> f32 {
+        let (g, o) = (self.g, &self.f.gbuffer);
+        let (Some(&then), false) = (o.direct.get(k), g.direct.is_empty()) else {
+            return 1.0;
+        };
+        let same = o.object[k] == object && o.material[k] == material;
+        // The direct light of the surface the sample lands on, as a centre nearby saw it.
+        let c = std::iter::once(Some(i))
+            .chain(self.neighbours(i))
+            .flatten()
+            .find(|&c| sees(c));
+        match c {
+            Some(c) if same => direct_light_share(g.direct[c], then),
+            _ => 0.0,
+        }
+    }
+
+    /// The pixel of `g` that contains raster position `r`.
+    fn pixel(&self, r: Vec2) -> Option<usize> {
+        let (w, h) = (self.g.width, self.g.height);
+        // In range, the truncation is the floor.
+        (r.x >= 0.0 && r.y >= 0.0 && r.x < w as f32 && r.y < h as f32)
+            .then(|| r.y as usize * w + r.x as usize)
+    }
+
+    /// The 4-neighbours of pixel `i` inside the image.
+    fn neighbours(&self, i: usize) -> [Option<usize>; 4] {
+        let (w, h) = (self.g.width, self.g.height);
+        let (x, y) = (i % w, i / w);
+        [
+            (x > 0).then(|| i - 1),
+            (x + 1 < w).then(|| i + 1),
+            (y > 0).then(|| i - w),
+            (y + 1 < h).then(|| i + w),
+        ]
+    }
+}
+
+/// The share of a sample's weight kept when the direct-light signatures
 /// ([`GBuffer::direct`]) of the two frames are `a` and `b`: 1 when equal (or both NaN: lit by
 /// the static scene alone), falling linearly to 0 at a relative change of
 /// [`DIRECT_TOLERANCE`]; 0 when only one is NaN.
@@ -717,160 +1325,6 @@ fn direct_light_share(a: f32, b: f32) -> f32 {
         return 1.0;
     }
     (1.0 - (a - b).abs() / (DIRECT_TOLERANCE * m)).clamp(0.0, 1.0)
-}
-
-/// Bilinear resampling of `f`'s sums at the taps' position over the inner four taps, each
-/// accepted with its share in [0, 1]: the bilinear weights of the accepted neighbours are
-/// renormalised to 1 (nothing under [`MIN_COVERAGE`]) and each neighbour's samples then count
-/// with its share.
-///
-/// Also returns a bound on the squared bias of the resampling, Y²: the spread of the accepted
-/// neighbours' mean luminance about their weighted mean beyond what their noise explains,
-/// times 1 − the largest weight (0 when one pixel is taken alone).
-fn resample<F: Fn(usize) -> f32>(f: &FrameSamples, taps: &mut Taps<F>) -> (HistoryPixel, f32) {
-    // A reprojection within 1/1000 pixel of a pixel centre takes that pixel alone, so a still
-    // camera reuses every sample unblurred.
-    let snap = |t: f32| {
-        if t < SNAP_PIXELS {
-            0.0
-        } else if t > 1.0 - SNAP_PIXELS {
-            1.0
-        } else {
-            t
-        }
-    };
-    let fx = snap(taps.q.x - taps.x1 as f32);
-    let fy = snap(taps.q.y - taps.y1 as f32);
-    let mut out = HistoryPixel::default();
-    let mut covered = 0f32;
-    // (bilinear weight, mean luminance, its noise variance) of the accepted neighbours.
-    let mut taken = [(0f32, 0f64, 0f64); 4];
-    let mut n_taken = 0;
-    for (dx, dy, wt) in [
-        (0, 0, (1.0 - fx) * (1.0 - fy)),
-        (1, 0, fx * (1.0 - fy)),
-        (0, 1, (1.0 - fx) * fy),
-        (1, 1, fx * fy),
-    ] {
-        let Some(k) = taps.index(1 + dx, 1 + dy).filter(|_| wt > 0.0) else {
-            continue;
-        };
-        let share = taps.share(1 + dx, 1 + dy, k);
-        if share <= 0.0 {
-            continue;
-        }
-        let c = &f.sums[k];
-        let px = HistoryPixel {
-            sum_even: DVec3::from_array(c.even.map(f64::from)),
-            sum_odd: DVec3::from_array(c.odd.map(f64::from)),
-            n_even: c.n_even as f64,
-            n_odd: c.n_odd as f64,
-            sum_lum2: c.lum2 as f64,
-        };
-        add(&mut out, &px, (wt * share) as f64);
-        covered += wt;
-        let n = px.weight();
-        if n > 0.0 {
-            let m = luminance(px.sum_even + px.sum_odd) / n;
-            let s2 = (px.sum_lum2 / n - m * m).max(0.0);
-            taken[n_taken] = (wt, m, s2 / n);
-            n_taken += 1;
-        }
-    }
-    if covered < MIN_COVERAGE {
-        return (HistoryPixel::default(), 0.0);
-    }
-    scale(&mut out, 1.0 / covered as f64);
-    (out, resampling_bias2(&taken[..n_taken]))
-}
-
-/// Catmull–Rom (bicubic, Keys 1981 with a = −½) resampling of `f`'s per-pixel means at the
-/// taps' position, where all 16 taps with a weight are valid and wholly accepted (else `None`:
-/// bilinear then). Bilinear resampling blurs a panned image by up to ¼ px² per axis, which on
-/// the holodeck's grid of thin bright lines cost more than the reused samples saved (relative
-/// RMSE 0.080 against uniform's 0.068 at 32 fresh spp); the cubic keeps the lines. The
-/// half-buffer means are combined with the weights, each channel of each half clamped to that
-/// half's range over the 4 nearest taps (no ringing, no negative radiance; the halves stay
-/// apart, so their difference still measures the noise), and the result counts as
-/// 1 / Σ w²/n samples: the count of one mean with the combination's noise variance.
-fn catmull_rom<F: Fn(usize) -> f32>(f: &FrameSamples, taps: &mut Taps<F>) -> Option<HistoryPixel> {
-    let cubic = |t: f32| -> [f32; 4] {
-        if t < SNAP_PIXELS {
-            return [0.0, 1.0, 0.0, 0.0];
-        }
-        if t > 1.0 - SNAP_PIXELS {
-            return [0.0, 0.0, 1.0, 0.0];
-        }
-        let (t2, t3) = (t * t, t * t * t);
-        [
-            0.5 * (-t3 + 2.0 * t2 - t),
-            0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
-            0.5 * (-3.0 * t3 + 4.0 * t2 + t),
-            0.5 * (t3 - t2),
-        ]
-    };
-    let wx = cubic(taps.q.x - taps.x1 as f32);
-    let wy = cubic(taps.q.y - taps.y1 as f32);
-    let (mut even, mut odd) = (DVec3::ZERO, DVec3::ZERO);
-    let (mut var_e, mut var_o, mut s2) = (0.0, 0.0, 0.0);
-    let inf = DVec3::splat(f64::INFINITY);
-    // Ranges of the even and of the odd means over the 4 nearest taps.
-    let (mut lo_e, mut hi_e, mut lo_o, mut hi_o) = (inf, -inf, inf, -inf);
-    for (j, &ky) in wy.iter().enumerate() {
-        for (i, &kx) in wx.iter().enumerate() {
-            let wt = (kx * ky) as f64;
-            if wt == 0.0 {
-                continue;
-            }
-            let k = taps.index(i, j)?;
-            let c = &f.sums[k];
-            if taps.share(i, j, k) < 1.0 || c.n_even <= 0.0 || c.n_odd <= 0.0 {
-                return None;
-            }
-            let (ne, no) = (c.n_even as f64, c.n_odd as f64);
-            let me = DVec3::from_array(c.even.map(f64::from)) / ne;
-            let mo = DVec3::from_array(c.odd.map(f64::from)) / no;
-            even += me * wt;
-            odd += mo * wt;
-            var_e += wt * wt / ne;
-            var_o += wt * wt / no;
-            let n = ne + no;
-            let m = luminance((me * ne + mo * no) / n);
-            s2 += wt.abs() * (c.lum2 as f64 / n - m * m).max(0.0);
-            if (1..=2).contains(&i) && (1..=2).contains(&j) {
-                (lo_e, hi_e) = (lo_e.min(me), hi_e.max(me));
-                (lo_o, hi_o) = (lo_o.min(mo), hi_o.max(mo));
-            }
-        }
-    }
-    let abs_total: f64 = wx.iter().map(|a| a.abs() as f64).sum::<f64>()
-        * wy.iter().map(|a| a.abs() as f64).sum::<f64>();
-    let (even, odd) = (even.clamp(lo_e, hi_e), odd.clamp(lo_o, hi_o));
-    let (ne, no) = (1.0 / var_e, 1.0 / var_o);
-    let mean_y = luminance((even * ne + odd * no) / (ne + no));
-    Some(HistoryPixel {
-        sum_even: even * ne,
-        sum_odd: odd * no,
-        n_even: ne,
-        n_odd: no,
-        sum_lum2: (ne + no) * (s2 / abs_total + mean_y * mean_y),
-    })
-}
-
-/// See [`resample`]: (weight, mean, noise variance) of the neighbours taken.
-fn resampling_bias2(taken: &[(f32, f64, f64)]) -> f32 {
-    let total: f64 = taken.iter().map(|t| t.0 as f64).sum();
-    if taken.len() < 2 || total <= 0.0 {
-        return 0.0;
-    }
-    let mean = taken.iter().map(|t| t.0 as f64 * t.1).sum::<f64>() / total;
-    let spread = taken
-        .iter()
-        .map(|t| t.0 as f64 * (t.1 - mean).powi(2))
-        .sum::<f64>()
-        / total;
-    let noise = taken.iter().map(|t| t.0 as f64 * t.2).sum::<f64>() / total;
-    (spread - noise).max(0.0) as f32
 }
 
 #[cfg(test)]

@@ -610,6 +610,27 @@ impl LoopState {
         pass
     }
 
+    /// Renders `pass` ([`crate::render::render_counts_recorded`]) and returns every sample
+    /// taken.
+    fn render_recorded(
+        &mut self,
+        scene: &Scene,
+        integrator: &Integrator,
+        pass: &crate::render::Pass,
+        sample_progress: &(dyn Fn(u64) + Sync),
+    ) -> Vec<crate::reuse::Sample> {
+        let (stats, samples) = crate::render::render_counts_recorded(
+            scene,
+            integrator,
+            &mut self.film,
+            pass,
+            sample_progress,
+        );
+        self.unreported_render = stats.wall;
+        self.stats += stats;
+        samples
+    }
+
     /// Records a pass's report (and calls `progress`); returns the fraction converged.
     fn report(&mut self, ratio: &[f32], progress: &(dyn Fn(&PassReport) + Sync)) -> f64 {
         let n_px = self.region.len();

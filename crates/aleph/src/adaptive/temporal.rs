@@ -37,7 +37,7 @@ use super::{
 use crate::film::Film;
 use crate::gbuffer::GBuffer;
 use crate::integrator::{Integrator, Strategy};
-use crate::reuse::{FrameSamples, Reprojected, ReuseWindow, Tested, base_spp};
+use crate::reuse::{FrameSamples, Reprojected, ReuseWindow, Reused, Tested, base_spp};
 use crate::sampler::SampleStreams;
 use crate::scene::Scene;
 use crate::velocity::velocity_from_gbuffer;
@@ -69,27 +69,29 @@ const MAX_PASSES: usize = 8;
 /// As [`render_reusing`].
 pub fn render_base(scene: &Scene, s: &AdaptiveSettings) -> Result<FrameSamples, AdaptiveError> {
     s.validate()?;
-    let (st, gbuffer) = base_pass(scene, s, &|_| {})?;
-    Ok(FrameSamples::new(scene.frame.index, &st.film, gbuffer))
+    Ok(base_pass(scene, s, &|_| {})?.1)
 }
 
-/// The G-buffer and the base pass's samples in a new loop state.
+/// The base pass in a new loop state, and the frame's samples (with its G-buffer) as later
+/// frames reuse them.
 fn base_pass(
     scene: &Scene,
     s: &AdaptiveSettings,
     sample_progress: &(dyn Fn(u64) + Sync),
-) -> Result<(LoopState, GBuffer), AdaptiveError> {
+) -> Result<(LoopState, FrameSamples), AdaptiveError> {
     let gbuffer = GBuffer::render(scene);
     let mut st = LoopState::new(scene, s)?;
-    let base = vec![base_spp(s.budget_spp); st.film.len()];
-    st.render(
-        scene,
-        &integrator_of(scene),
-        &base,
-        SampleStreams::Halves,
-        sample_progress,
-    );
-    Ok((st, gbuffer))
+    let spp = base_spp(s.budget_spp);
+    let counts = vec![spp; st.film.len()];
+    let pass = crate::render::Pass {
+        counts: &counts,
+        seed: crate::reuse::base_seed(scene),
+        streams: SampleStreams::Halves,
+        offset: crate::reuse::base_offset(scene.frame.index, spp),
+    };
+    let samples = st.render_recorded(scene, &integrator_of(scene), &pass, sample_progress);
+    let frame = FrameSamples::new(scene, &st.film, gbuffer, samples);
+    Ok((st, frame))
 }
 
 fn integrator_of(scene: &Scene) -> Integrator {
@@ -121,18 +123,19 @@ pub fn render_reusing(
         ));
     }
     let start = Instant::now();
-    let (st, gbuffer) = base_pass(scene, s, sample_progress)?;
+    let (st, base) = base_pass(scene, s, sample_progress)?;
+    let gbuffer = base.gbuffer.clone();
     let velocity = velocity_from_gbuffer(scene, &gbuffer);
-    let base = FrameSamples::new(scene.frame.index, &st.film, gbuffer.clone());
     let t_reuse = Instant::now();
     let reprojected = window.reproject(scene, &gbuffer);
     let mut frame = Frame {
         st,
+        own: base,
         reprojected,
         tested: Tested::default(),
         reuse_time: t_reuse.elapsed(),
     };
-    frame.retest();
+    frame.retest(Reused::Base);
     let (judgement, stop, guide_stats) = if judges(scene, s) {
         let (judgement, stop, judge) =
             frame.judged(scene, s, velocity.as_ref(), progress, sample_progress)?;
@@ -144,7 +147,10 @@ pub fn render_reusing(
             None,
         )
     };
-    let st = frame.st;
+    // The image reuses every fresh sample of the window's frames; the passes were allocated
+    // by their base passes alone (see crate::reuse, "The window").
+    frame.retest(Reused::All);
+    let (st, own) = (frame.st, frame.own);
     let reuse = reuse_report(&st.film, window.len(), frame.reuse_time);
     let converged_fraction = st.passes.last().map_or(0.0, |p| p.converged_fraction);
     let (threshold, error) = judgement.map(|j| (j.threshold, j.error)).unzip();
@@ -166,25 +172,42 @@ pub fn render_reusing(
         denoised: None,
         denoise_time: Duration::ZERO,
     };
-    Ok((result, base))
+    Ok((result, own))
 }
 
 /// A reusing frame in the making: its loop state, the window reprojected into it and what
 /// the last test against its fresh samples kept.
 struct Frame {
     st: LoopState,
+    /// Every fresh sample so far, for the frames after it.
+    own: FrameSamples,
     reprojected: Reprojected,
     tested: Tested,
     reuse_time: Duration,
 }
 
 impl Frame {
-    /// The test of the reprojected frames again, with every fresh sample so far (more of them
-    /// resolve smaller changes); what it keeps becomes the film's history.
-    fn retest(&mut self) {
+    /// The test of the reprojected frames' `reused` samples again, with every fresh sample so
+    /// far (more of them resolve smaller changes); what it keeps becomes the film's history.
+    fn retest(&mut self, reused: Reused) {
         let t = Instant::now();
-        self.tested = retest(&self.reprojected, &mut self.st.film);
+        self.tested = retest(&self.reprojected, &mut self.st.film, reused);
         self.reuse_time += t.elapsed();
+    }
+
+    /// Renders a pass of `counts` fresh samples (the frame's own streams) and keeps them for
+    /// the frames after it.
+    fn render(&mut self, scene: &Scene, counts: &[u32], sample_progress: &(dyn Fn(u64) + Sync)) {
+        let pass = crate::render::Pass {
+            counts,
+            seed: scene.frame_seed(),
+            streams: SampleStreams::Halves,
+            offset: 0,
+        };
+        let samples = self
+            .st
+            .render_recorded(scene, &integrator_of(scene), &pass, sample_progress);
+        self.own.add_pass(scene, counts, &samples);
     }
 
     /// The perceptual loop (steps 3 and 4 of the module docs): returns the last judgement,
@@ -197,7 +220,6 @@ impl Frame {
         progress: &(dyn Fn(&PassReport) + Sync),
         sample_progress: &(dyn Fn(u64) + Sync),
     ) -> Result<(super::criterion::Judgement, StopReason, Judge), AdaptiveError> {
-        let integrator = integrator_of(scene);
         let n_px = self.st.film.len();
         let budget_total = s.budget_spp.map(|b| (b * n_px as f64).round() as u64);
         let t_setup = Instant::now();
@@ -242,14 +264,8 @@ impl Frame {
                 };
                 return Ok((judgement, reason, judge));
             }
-            st.render(
-                scene,
-                &integrator,
-                &alloc.want,
-                SampleStreams::Halves,
-                sample_progress,
-            );
-            self.retest();
+            self.render(scene, &alloc.want, sample_progress);
+            self.retest(Reused::Base);
         }
     }
 
@@ -287,14 +303,8 @@ impl Frame {
         fit_to_budget(&mut alloc, &st.film, &noisy, remaining, cap);
         st.decision_time += t0.elapsed();
         if alloc.total() > 0 {
-            st.render(
-                scene,
-                &integrator_of(scene),
-                &alloc.want,
-                SampleStreams::Halves,
-                sample_progress,
-            );
-            self.retest();
+            // No test of the base passes again: render_reusing tests every reused sample next.
+            self.render(scene, &alloc.want, sample_progress);
             self.st.report(&unjudged, progress);
         }
         StopReason::Budget
@@ -319,9 +329,9 @@ fn fresh_cap(s: &AdaptiveSettings) -> u32 {
 
 /// Tests the reprojected frames against `film`'s fresh samples and makes what is kept the
 /// film's history; returns the bias bounds (the history is moved into the film).
-fn retest(reprojected: &Reprojected, film: &mut Film) -> Tested {
+fn retest(reprojected: &Reprojected, film: &mut Film, reused: Reused) -> Tested {
     film.history = None;
-    let mut tested = reprojected.test(film);
+    let mut tested = reprojected.test(film, reused);
     film.history = Some(std::mem::take(&mut tested.history));
     tested
 }
@@ -429,12 +439,34 @@ fn water_fill(alloc: &mut Allocation, film: &Film, ratio: &[f32], remaining: u64
             hi = mid
         }
     }
+    let take = |level: f64, eff: f64, room: u32| ((level - eff).ceil().max(0.0) as u32).min(room);
     for &(i, eff, room) in &open {
-        let c = ((lo - eff).ceil().max(0.0) as u32).min(room);
+        let c = take(lo, eff, room);
         if c > 0 {
             alloc.want[i] += c;
             alloc.reopen[i] = true;
         }
+    }
+    // The level rises in steps (every pixel of one effective count at once: a sky of exactly
+    // K + 1 frames' samples); what the last step leaves goes one each to the pixels the next
+    // step would raise, fewest effective samples first.
+    let mut left = spare.saturating_sub(cost(lo));
+    if left == 0 {
+        return;
+    }
+    let mut next: Vec<(usize, f64)> = open
+        .iter()
+        .filter(|&&(_, eff, room)| take(hi, eff, room) > take(lo, eff, room))
+        .map(|&(i, eff, _)| (i, eff))
+        .collect();
+    next.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+    for (i, _) in next {
+        if left == 0 {
+            break;
+        }
+        alloc.want[i] += 1;
+        alloc.reopen[i] = true;
+        left -= 1;
     }
 }
 

@@ -316,7 +316,8 @@ fn render_sequence(
     let start = Instant::now();
     let k = job.reuse_window();
     let anim_first = scene.animation.map_or(first, |a| a.frame_start);
-    let warm = crate::reuse::window_start(first, anim_first, k);
+    let warm = crate::reuse::warm_up_start(first, anim_first, k);
+    let whole_from = crate::reuse::window_start(first, anim_first, k);
     let sequence = Sequence::new(scene, warm, last)?;
     observer.sequence_started(first, last);
     let stem = job.output.stem.as_deref();
@@ -327,9 +328,15 @@ fn render_sequence(
         let frame = frame?;
         window.keep_from(crate::reuse::window_start(frame.index, anim_first, k));
         let (settings, look) = job.settings(&frame.scene, Some(frame.adaptation))?;
-        if frame.index < first {
-            // A warm-up frame: only the base pass the frames after it reuse.
+        if frame.index < whole_from {
+            // A warm-up frame whose base pass alone the frames after it depend on.
             window.push(crate::adaptive::render_base(&frame.scene, &settings)?);
+            continue;
+        }
+        if frame.index < first {
+            // A warm-up frame whose samples the first frame reuses: rendered, not written.
+            let (_, own) = adaptive(&frame.scene, &settings, Some(&window), &())?;
+            window.push(own.expect("a reusing frame keeps its samples"));
             continue;
         }
         let fstem = stem.map(|s| numbered(s, frame.index));
