@@ -253,11 +253,15 @@ impl GBuffer {
                 turn: 0.0,
             }),
             Seen::Surface {
-                tri,
                 local,
                 local_normal,
+                ..
             } => {
-                let (point, normal) = match scene.geometry.transform_at(tri, t) {
+                // The instance from `IndexOB` (2 + i), not from the triangle's record: one
+                // lookup fewer into the scene's triangles, per pixel and window frame.
+                let instance = self.object[i].checked_sub(2);
+                let moving = instance.and_then(|k| scene.geometry.instance_transform(k, t));
+                let (point, normal) = match moving {
                     Some(m) => (
                         m.transform_point3(local),
                         m.matrix3.inverse().transpose().mul_vec3(local_normal),

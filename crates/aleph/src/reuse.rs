@@ -217,8 +217,8 @@ pub fn base_offset(frame: i64, spp: u32) -> u64 {
 pub struct FrameSamples {
     /// The frame number.
     pub index: i64,
-    /// The frame's G-buffer.
-    pub gbuffer: GBuffer,
+    /// What reuse needs of the frame's G-buffer.
+    pub view: View,
     /// Every sample, grouped by pixel (row-major) in the order taken.
     samples: Vec<Sample>,
     /// `start[i]..start[i + 1]`: pixel i's samples (pixels + 1 entries); the k-th of them is
@@ -252,7 +252,12 @@ impl FrameSamples {
     ///
     /// # Panics
     /// If `samples` do not match the counts of `film`, or the film did not start at sample 0.
-    pub fn new(scene: &Scene, film: &Film, gbuffer: GBuffer, samples: Vec<Sample>) -> FrameSamples {
+    pub fn new(
+        scene: &Scene,
+        film: &Film,
+        gbuffer: &GBuffer,
+        samples: Vec<Sample>,
+    ) -> FrameSamples {
         let mut start = Vec::with_capacity(film.len() + 1);
         let mut n = 0u32;
         start.push(0);
@@ -274,7 +279,7 @@ impl FrameSamples {
         let seen = samples.par_iter().map(|s| footprint(scene, s)).collect();
         FrameSamples {
             index: scene.frame.index,
-            gbuffer,
+            view: View::of(gbuffer),
             samples,
             start,
             base,
@@ -322,6 +327,73 @@ impl FrameSamples {
     /// Whether it holds no sample.
     pub fn is_empty(&self) -> bool {
         self.samples.is_empty()
+    }
+}
+
+/// What reuse needs of a frame's G-buffer ([`GBuffer`]), one record of 48 bytes per pixel: a
+/// window frame keeps this, not the whole G-buffer, and a sample's checks read one place.
+#[derive(Clone, Debug)]
+pub struct View {
+    /// The frame's instant, s.
+    pub time: f32,
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    px: Vec<Px>,
+    /// [`GBuffer::direct`] (empty where nothing but the camera moves).
+    direct: Vec<f32>,
+}
+
+/// One pixel of a [`View`]: the surface at its centre (world point, depth along the view axis,
+/// shading normal, `IndexOB`, material) and [`GBuffer::front`]'s nearest neighbour.
+#[derive(Clone, Copy, Debug, Default)]
+struct Px {
+    position: Vec3,
+    depth: f32,
+    normal: Vec3,
+    object: u32,
+    material: u32,
+    front: u32,
+    /// [`EDGE`], [`STEP`].
+    flags: u32,
+}
+
+/// [`Px::flags`]: the pixel straddles an edge ([`GBuffer::edge`]).
+const EDGE: u32 = 1;
+/// [`Px::flags`]: its 3 × 3 neighbourhood spans a step in depth ([`GBuffer::front`]).
+const STEP: u32 = 2;
+
+impl View {
+    /// The view of `g`.
+    pub fn of(g: &GBuffer) -> View {
+        let px = (0..g.width * g.height)
+            .map(|i| {
+                let (front, step) = g.front[i];
+                Px {
+                    position: g.position[i],
+                    depth: g.depth[i],
+                    normal: g.normal_at(i),
+                    object: g.object[i],
+                    material: g.material[i],
+                    front,
+                    flags: if g.edge[i] { EDGE } else { 0 } | if step { STEP } else { 0 },
+                }
+            })
+            .collect();
+        View {
+            time: g.time,
+            width: g.width,
+            height: g.height,
+            px,
+            direct: g.direct.clone(),
+        }
+    }
+}
+
+impl Px {
+    fn is_background(&self) -> bool {
+        self.object == crate::gbuffer::BACKGROUND_OBJECT
     }
 }
 
@@ -395,10 +467,11 @@ impl ReuseWindow {
             .iter()
             .map(|m| reuse_angle(&m.kind))
             .collect();
+        let view = View::of(g);
         let (base, all): (Vec<_>, Vec<_>) = self
             .frames
             .par_iter()
-            .map(|f| splat_frame(scene, g, f, (&shutter, &angles)))
+            .map(|f| splat_frame(scene, (g, &view), f, (&shutter, &angles)))
             .unzip();
         Reprojected {
             base: Layer::new(base),
@@ -839,16 +912,16 @@ fn add(h: &mut HistoryPixel, o: &HistoryPixel, k: f64) {
 /// those of `f`'s base pass, and all of them ([`Reused`]).
 fn splat_frame(
     scene: &Scene,
-    g: &GBuffer,
+    (g, view): (&GBuffer, &View),
     f: &FrameSamples,
     (shutter, angles): (&Shutter, &[f32]),
 ) -> (Vec<Part>, Vec<Part>) {
-    let then = scene.camera_at(f.gbuffer.time);
+    let then = scene.camera_at(f.view.time);
     let cos_normal = NORMAL_TOLERANCE_DEG.to_radians().cos();
     let covered = covered_by(scene, g, f, (&then, shutter.centre()), cos_normal);
     let landing = Landing {
         scene,
-        g,
+        g: view,
         f,
         then: &then,
         shutter,
@@ -857,8 +930,8 @@ fn splat_frame(
         covered: &covered,
     };
     // Where each sample lands, computed in parallel by source rows, in the samples' order.
-    let w = f.gbuffer.width;
-    let rows: Vec<Vec<Option<Landed>>> = (0..f.gbuffer.height)
+    let w = f.view.width;
+    let rows: Vec<Vec<Option<Landed>>> = (0..f.view.height)
         .into_par_iter()
         .map(|y| {
             let (a, b) = (f.start[y * w] as usize, f.start[(y + 1) * w] as usize);
@@ -1024,7 +1097,7 @@ fn seen_by(
     (then, here): (&Camera, &Camera),
     cos_normal: f32,
 ) -> bool {
-    let o = &f.gbuffer;
+    let o = &f.view;
     let Some(sight) = g.sight_by(scene, i, o.time, (then, here)) else {
         return false;
     };
@@ -1046,21 +1119,23 @@ fn seen_by(
         (ky + 1 < o.height).then(|| k + o.width),
     ];
     around.into_iter().flatten().any(|c| {
-        if o.object[c] != g.object[i] || o.material[c] != g.material[i] {
+        let c = &o.px[c];
+        if c.object != g.object[i] || c.material != g.material[i] {
             return false;
         }
         if g.is_background(i) {
             return true;
         }
-        (o.position[c] - sight.point).dot(sight.normal).abs() <= PLANE_TOLERANCE * o.depth[c]
-            && o.normal_at(c).dot(sight.normal) >= cos_normal
+        (c.position - sight.point).dot(sight.normal).abs() <= PLANE_TOLERANCE * c.depth
+            && c.normal.dot(sight.normal) >= cos_normal
     })
 }
 
 /// What a sample of frame `f` needs to land in the frame whose G-buffer is `g`.
 struct Landing<'a> {
     scene: &'a Scene,
-    g: &'a GBuffer,
+    /// The view of the frame samples land in.
+    g: &'a View,
     f: &'a FrameSamples,
     /// The camera at `f`'s instant, and over the shutter of `g`'s frame.
     then: &'a Camera,
@@ -1182,7 +1257,7 @@ impl Landing<'_> {
                 return None;
             }
             let eye = self.shutter.position(s.dt);
-            let shown = g.is_background(i) && !g.front[i].1;
+            let shown = g.px[i].is_background() && g.px[i].flags & STEP == 0;
             if !(shown || geo.unoccluded(eye, s.at, f32::INFINITY, t)) {
                 return None;
             }
@@ -1208,7 +1283,7 @@ impl Landing<'_> {
         }
         let angle = self.angles[material as usize];
         if angle < f32::INFINITY {
-            let before = geo.instance_transform(seen.instance, self.f.gbuffer.time);
+            let before = geo.instance_transform(seen.instance, self.f.view.time);
             let view_then = self.then.position - before.map_or(s.at, |m| m.transform_point3(s.at));
             // atan2 of the cross and dot products: exact 0 for equal directions.
             if view.cross(view_then).length().atan2(view.dot(view_then)) > angle {
@@ -1224,21 +1299,21 @@ impl Landing<'_> {
         };
         let object = object_index(seen.instance);
         let sees = |c: usize| {
-            g.object[c] == object
-                && g.material[c] == material
-                && (p_inst - g.position[c]).dot(g.normal_at(c)).abs()
-                    <= PLANE_TOLERANCE * g.depth[c]
-                && normal.dot(g.normal_at(c)) >= self.cos_normal
+            let c = &g.px[c];
+            c.object == object
+                && c.material == material
+                && (p_inst - c.position).dot(c.normal).abs() <= PLANE_TOLERANCE * c.depth
+                && normal.dot(c.normal) >= self.cos_normal
         };
         // Where no step in depth is near, the sample is shown if it lies on the surface a
         // centre there sees (one of several meeting in a plane at a change of material);
         // beside a step, if it lies on the nearest surface there. Else (a surface behind, or
         // one no centre sees) a ray from the point to the camera tells.
-        let (front, step) = g.front[i];
-        let shown = if step {
-            sees(front as usize)
+        let px = &g.px[i];
+        let shown = if px.flags & STEP != 0 {
+            sees(px.front as usize)
         } else {
-            sees(i) || g.edge[i] && self.neighbours(i).into_iter().flatten().any(sees)
+            sees(i) || px.flags & EDGE != 0 && self.neighbours(i).into_iter().flatten().any(sees)
         };
         if !shown {
             let o = crate::geometry::offset_origin(p, normal, view);
@@ -1271,11 +1346,11 @@ impl Landing<'_> {
         (material, object): (u32, u32),
         sees: &dyn Fn(usize) -> bool,
     ) -> f32 {
-        let (g, o) = (self.g, &self.f.gbuffer);
+        let (g, o) = (self.g, &self.f.view);
         let (Some(&then), false) = (o.direct.get(k), g.direct.is_empty()) else {
             return 1.0;
         };
-        let same = o.object[k] == object && o.material[k] == material;
+        let same = o.px[k].object == object && o.px[k].material == material;
         // The direct light of the surface the sample lands on, as a centre nearby saw it.
         let c = std::iter::once(Some(i))
             .chain(self.neighbours(i))

@@ -72,13 +72,13 @@ pub fn render_base(scene: &Scene, s: &AdaptiveSettings) -> Result<FrameSamples, 
     Ok(base_pass(scene, s, &|_| {})?.1)
 }
 
-/// The base pass in a new loop state, and the frame's samples (with its G-buffer) as later
-/// frames reuse them.
+/// The base pass in a new loop state, the frame's samples as later frames reuse them, and its
+/// G-buffer.
 fn base_pass(
     scene: &Scene,
     s: &AdaptiveSettings,
     sample_progress: &(dyn Fn(u64) + Sync),
-) -> Result<(LoopState, FrameSamples), AdaptiveError> {
+) -> Result<(LoopState, FrameSamples, GBuffer), AdaptiveError> {
     let gbuffer = GBuffer::render(scene);
     let mut st = LoopState::new(scene, s)?;
     let spp = base_spp(s.budget_spp);
@@ -90,8 +90,8 @@ fn base_pass(
         offset: crate::reuse::base_offset(scene.frame.index, spp),
     };
     let samples = st.render_recorded(scene, &integrator_of(scene), &pass, sample_progress);
-    let frame = FrameSamples::new(scene, &st.film, gbuffer, samples);
-    Ok((st, frame))
+    let frame = FrameSamples::new(scene, &st.film, &gbuffer, samples);
+    Ok((st, frame, gbuffer))
 }
 
 fn integrator_of(scene: &Scene) -> Integrator {
@@ -123,8 +123,7 @@ pub fn render_reusing(
         ));
     }
     let start = Instant::now();
-    let (st, base) = base_pass(scene, s, sample_progress)?;
-    let gbuffer = base.gbuffer.clone();
+    let (st, base, gbuffer) = base_pass(scene, s, sample_progress)?;
     let velocity = velocity_from_gbuffer(scene, &gbuffer);
     let t_reuse = Instant::now();
     let reprojected = window.reproject(scene, &gbuffer);
