@@ -180,13 +180,14 @@ fn farm_scripts_give_the_single_machine_files() {
     let scene = repo("scenes/cornell-motion/scene.toml");
     let scene = scene.to_str().unwrap();
     let opts = ["--resolution", "40x40", "--spp", "6"];
-    // A sequence of the perceptual sampler reusing frames (the default window of 7: frames
-    // 2-4 lie in one chunk of 32 frames, one task; a window of 1: chunks of 8 frames, so 6-9
-    // are two tasks, 6-7 and 8-9, the second rendering the base pass of frame 7 as warm-up),
-    // one of independent frames (a task per frame), and one split by samples (uniform).
+    // A sequence of the perceptual sampler reusing frames (the default window: frames 2-4 lie
+    // in one chunk, one task; a window of 1: chunks of 16 frames, so 14-17 are two tasks, 14-15
+    // and 16-17, the second rendering the base pass of frame 14 and frame 15 whole as
+    // warm-up), one of independent frames (a task per frame), and one split by samples
+    // (uniform).
     let cases: [(&str, &str, Vec<&str>, usize); 4] = [
         ("frames", "2-4", vec![], 1),
-        ("chunks", "6-9", vec!["--reuse-window", "1"], 2),
+        ("chunks", "14-17", vec!["--reuse-window", "1"], 2),
         ("independent", "2-4", vec!["--reuse-window", "0"], 3),
         ("parts", "2-4", vec!["--sampler", "uniform"], 9),
     ];
@@ -226,7 +227,7 @@ fn farm_scripts_give_the_single_machine_files() {
         assert!(!files(&farm).iter().any(|f| f.contains(".part-")));
         let last = format!(
             "cornell-motion.{:04}.exr",
-            &frames[2..].parse::<u32>().unwrap()
+            frames.split('-').nth(1).unwrap().parse::<u32>().unwrap()
         );
         let before = std::fs::read(farm.join(&last)).unwrap();
         for i in 0..n {

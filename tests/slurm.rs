@@ -96,9 +96,10 @@ fn farm_through_slurm_equals_one_machine() {
         root,
         "sequence",
         motion.to_str().unwrap(),
-        &["--frames", "6-9"],
-        // Reusing frames with a window of 1, in chunks of 8 (0-7, 8-15): two tasks, 6-7 and
-        // 8-9, each rendering the base pass of the frame before it as warm-up.
+        &["--frames", "14-17"],
+        // Reusing frames with a window of 1, in chunks of 16 (0-15, 16-31): two tasks, 14-15
+        // and 16-17, each rendering the base pass of the frame two before it and the frame
+        // before it whole as warm-up.
         &[
             "--resolution",
             "64x64",
