@@ -178,9 +178,9 @@ pub struct SamplingArgs {
     /// still; for comparisons).
     #[arg(long, help_heading = "Adaptive sampling")]
     pub no_velocity: bool,
-    /// Sequences: each frame reuses the base passes (the first half of the fresh samples) of up
-    /// to K frames before it (the perceptual sampler; a frame rendered alone renders those K
-    /// base passes first). 0 renders independent frames. Default: 15 for the perceptual sampler, 0 for the others and with --time.
+    /// Sequences: each frame reuses every fresh sample of up to K frames before it (the
+    /// perceptual sampler; a frame rendered alone first renders the base passes of the K frames
+    /// before those and then those K frames whole). 0 renders independent frames. Default: 15 for the perceptual sampler, 0 for the others and with --time.
     #[arg(long, value_name = "K", help_heading = "Adaptive sampling")]
     pub reuse_window: Option<u32>,
 }

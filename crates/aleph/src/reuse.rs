@@ -2,11 +2,10 @@
 //! traced on the same surfaces (Myszkowski, Rokita & Tawara 1999; DESIGN.md §12).
 //!
 //! # What is reused
-//! The *base pass* of each of the last K frames (the window, [`ReuseWindow`]): the first
-//! [`base_spp`] fresh samples of every pixel, drawn uniformly before anything about the frame
-//! was judged, kept sample by sample ([`Sample`]: the surface point the camera ray hit first,
+//! The fresh samples of each of the last K frames (the window, [`ReuseWindow`]), kept sample
+//! by sample ([`Sample`]: the surface point the camera ray hit first,
 //! in its object's rest space, the time in the shutter and the radiance). Each window frame is
-//! carried into the current frame directly, each sample once ([`Landing::land`]): its point,
+//! carried into the current frame directly, each sample once (`Landing::land`): its point,
 //! moved with its object to the same time in the current frame's shutter, lands in the pixel
 //! it projects into there. Nothing is resampled from pixel means, so a panned texture keeps
 //! its pixel-thin lines, a pixel that straddles an edge takes the samples of each of its
@@ -19,12 +18,13 @@
 //! - the view of its point turned by no more than its material allows
 //!   ([`crate::gbuffer::GBuffer::reuse_angle`]: glossy lobes, mirrors and glass are
 //!   view-dependent) and the same side of its surface faces the camera;
-//! - its frame saw all of the pixel it lands in ([`covered_by`]): at a disocclusion's border
+//! - its frame saw all of the pixel it lands in (`covered_by`): at a disocclusion's border
 //!   the samples of the part seen before would stand for the whole pixel;
-//! - nothing is in front of it: where the pixel does not straddle an edge and its centre sees
-//!   the sample's surface (same object and material, within [`PLANE_TOLERANCE`] · depth of the
-//!   tangent plane, normals within [`NORMAL_TOLERANCE_DEG`]) that is taken as shown; elsewhere
-//!   a ray from the point to the camera tells;
+//! - nothing is in front of it: where no step in depth is near the pixel
+//!   ([`crate::gbuffer::GBuffer::front`]) and a centre there sees the sample's surface (same
+//!   object and material, within [`PLANE_TOLERANCE`] · depth of the tangent plane, normals
+//!   within [`NORMAL_TOLERANCE_DEG`]), or beside a step the sample lies on the nearest surface,
+//!   it is taken as shown; elsewhere a ray from the point to the camera tells;
 //! - in a scene where anything but the camera moves, its direct light
 //!   ([`crate::gbuffer::GBuffer::direct`], the same fixed light samples in every frame) is
 //!   within [`DIRECT_TOLERANCE`] of what it was: a moving shadow or a light uncovered changes
@@ -62,16 +62,17 @@
 //! reuse below independent frames for it until the rule).
 //!
 //! # The window
-//! A frame reuses the base passes of the K frames before it (a sliding window; fewer at the
-//! animation's start). A base pass depends on its frame alone, not on what that frame reused,
-//! so any frame renders alone after the base passes of its K warm-up frames
-//! ([`crate::adaptive::render_base`]), and a farm may cut a sequence anywhere
-//! ([`chunk_start`]). The samples a frame adds after its base pass, where perception asked for
-//! them, are its own: they depend on its history, and reusing them would chain every frame to
-//! the animation's first. Every frame after the first K has the same history (no keyframe
-//! whose quality steps down every K + 1 frames: on the moving-sphere box that step was a
-//! 3 Hz pulse of the displayed mean, which ColorVideoVDP scored below independent frames).
-//! K = 0 gives independent frames.
+//! A frame reuses every fresh sample of the K frames before it (a sliding window; fewer at the
+//! animation's start). Its own later passes, where perception asked for samples, are
+//! allocated by the window's *base passes* alone ([`Reused::Base`]), the first [`base_spp`]
+//! samples of each frame, drawn uniformly before anything about the frame was judged: a base
+//! pass depends on its frame alone, so a frame's later passes depend on the K frames before it
+//! and its image ([`Reused::All`]) on the 2K frames before it, never on the animation's first.
+//! Any frame renders alone after its warm-up ([`warm_up_start`]: K base passes, then K frames
+//! whole), and a farm may cut a sequence anywhere ([`chunk_start`]). Every frame after the
+//! first 2K has the same history (no keyframe whose quality steps down every K + 1 frames: on
+//! the moving-sphere box that step was a 3 Hz pulse of the displayed mean, which ColorVideoVDP
+//! scored below independent frames). K = 0 gives independent frames.
 
 use crate::camera::Camera;
 use crate::film::{Film, HistoryPixel};
@@ -989,7 +990,7 @@ impl Landed {
 }
 
 /// Largest ratio, either way, of the surface area a reused sample stands for to the area the
-/// pixel it lands in covers ([`Landing::land`]); beyond it the weight is clamped, so that a
+/// pixel it lands in covers (see the module docs); beyond it the weight is clamped, so that a
 /// surface seen edge-on in an earlier frame (few samples, each for a large area) does not let
 /// one sample outweigh the rest.
 pub const MAX_AREA_RATIO: f32 = 8.0;

@@ -1,12 +1,15 @@
 //! The adaptive loop of a frame that reuses earlier frames' samples ([`crate::reuse`]).
 //!
-//! 1. The window's frames are reprojected into this frame (G-buffer validation).
-//! 2. The base pass: [`crate::reuse::base_spp`] fresh samples everywhere (half the budget),
-//!    drawn before anything is judged, are what later frames reuse ([`render_base`] renders
-//!    it alone for a warm-up frame); every pixel keeps a fresh estimate, and the test of
-//!    each reprojected frame against it drops history where light changed on unchanged
-//!    surfaces. The test is repeated after every pass with all the
-//!    fresh samples so far, which resolve smaller changes.
+//! 1. The base pass: [`crate::reuse::base_spp`] fresh samples everywhere (half the budget),
+//!    drawn before anything is judged ([`render_base`] renders it alone for a warm-up frame).
+//! 2. The window's frames land in this frame ([`crate::reuse::ReuseWindow::reproject`]); the
+//!    test of each against the fresh samples drops history where light changed on unchanged
+//!    surfaces. The test is repeated after every pass with all the fresh samples so far,
+//!    which resolve smaller changes. Until the last pass the history is the window's base
+//!    passes ([`crate::reuse::Reused::Base`]), so that what the passes are given depends on
+//!    the K frames before this one alone; the image then reuses every fresh sample of the
+//!    window ([`crate::reuse::Reused::All`]). Every pass's samples are kept for the frames
+//!    after this one.
 //! 3. Then, pass by pass, the perceptual criterion judges the combined estimate (fresh and
 //!    reused, half-buffer error plus the test's bias bound, against the velocity-aware
 //!    threshold map) and the pixels whose error is visible get about n_eff (r² − 1) more fresh
