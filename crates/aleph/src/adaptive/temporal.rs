@@ -21,15 +21,15 @@
 //! 4. Under a budget, once nothing is visible, the rest is spent the same way. Without a budget
 //!    the loop stops at the converged fraction.
 //!
-//! Where nothing but the camera moves, a budget under `steer_from_spp` (128 by default, as
-//! for stills) skips steps 3 and 4: the rest of the budget after the base pass levels the
-//! effective counts in one pass (the water-filling of step 3, leaving out pixels without
-//! noise) and nothing is judged, so no guide and no threshold map are made ([`judges`]).
-//! Measured (docs/reuse.md; video JOD at 2 / 4 / 8 / 16 fresh spp, levelled against judged):
-//! the walkthrough 8.52 / 9.09 / 9.56 / 9.72 against 8.46 / 9.14 / 9.57 / 9.73, in 0.16 s per
-//! frame at 2 spp against 0.29 s; the holodeck pan 8.43 / 9.09 / 9.48 / 9.68 against 8.50 /
-//! 9.10 / 9.49 / 9.68. With a moving object the judge pays: the moving-sphere box scored
-//! 5.98 / 6.23 / 6.33 / 6.54 levelled against 6.25 / 6.43 / 6.54 / 6.67 judged.
+//! A budget under `steer_from_spp` (128 by default, as for stills) skips steps 3 and 4: the
+//! rest of the budget after the base pass levels the effective counts in one pass (the
+//! water-filling of step 3, leaving out pixels without noise) and nothing is judged, so no
+//! guide and no threshold map are made ([`judges`]). Measured (docs/reuse.md; video JOD at
+//! 2 / 4 / 8 / 16 fresh spp, levelled against judged): the walkthrough 8.52 / 9.09 / 9.56 /
+//! 9.72 against 8.46 / 9.14 / 9.57 / 9.73, in 0.16 s per frame at 2 spp against 0.29 s; the
+//! holodeck pan 8.43 / 9.09 / 9.48 / 9.68 against 8.50 / 9.10 / 9.49 / 9.68 (both before
+//! samples were landed one by one); the moving-sphere box, where an object moves, 6.41 / 6.97 /
+//! 7.29 / 7.17 against 6.47 / 7.02 / 7.30 / 7.18, in 0.15 s per frame at 4 spp against 0.25 s.
 
 use super::allocate::{Allocation, fit_to_budget, stratified_floor};
 use super::criterion::{Judge, NEGLIGIBLE_NOISE_CONTRAST, relative_noise};
@@ -313,12 +313,14 @@ impl Frame {
     }
 }
 
-/// Whether a reusing frame is judged: under a budget of `steer_from_spp` or more, or where
-/// anything but the camera moves (reused light can then be wrong, and the test's bias bound
-/// is part of the error the threshold map judges). Else its fresh samples are levelled with
-/// the reused ones ([`Frame::levelled`]).
-fn judges(scene: &Scene, s: &AdaptiveSettings) -> bool {
-    s.steers() || scene.geometry.has_motion()
+/// Whether a reusing frame is judged: under a budget of `steer_from_spp` or more (as a still
+/// is) or without a budget. Else its fresh samples are levelled with the reused ones
+/// ([`Frame::levelled`]), also where an object moves: the test against the fresh samples
+/// still drops reused light that changed, and on the moving-sphere box (128², frames 0–11,
+/// video JOD at 2 / 4 / 8 / 16 fresh spp) the judge bought 6.47 / 7.02 / 7.30 / 7.18 against
+/// 6.41 / 6.97 / 7.29 / 7.17 levelled for 0.25 s a frame at 4 spp against 0.15 s (docs/reuse.md).
+fn judges(_: &Scene, s: &AdaptiveSettings) -> bool {
+    s.steers()
 }
 
 /// The most fresh samples one pixel may take (see [`REUSE_CAP_SHARE`]).
