@@ -229,24 +229,33 @@ pub struct FrameSamples {
     start: Vec<u32>,
     /// Samples per pixel of the base pass: each pixel's first `base` samples.
     base: u32,
-    /// Per sample: what landing it needs of its frame ([`Seen`]).
-    seen: Vec<Seen>,
+    /// Per sample: the surface area its source pixel covered at its point (m²; a miss: the
+    /// pixel's solid angle, sr), negative where the side facing the camera was the back of the
+    /// winding ([`footprint`]). With the sample, 36 bytes.
+    area: Vec<f32>,
 }
 
-/// Per sample of a [`FrameSamples`], what its frame saw of it (kept, so that each of the K
-/// frames it lands in need not look its triangle up again).
+/// What landing needs of a triangle, 20 bytes (a scene's triangles keep 56 and more, and
+/// every landing would read them from afar): its unit normal from the winding in its object's
+/// rest space, its material and its instance ([`crate::geometry::STATIC_INSTANCE`] for
+/// static geometry).
 #[derive(Clone, Copy, Debug, Default)]
-struct Seen {
-    /// Its triangle's unit normal from the winding, in the rest space of its object.
+struct Tri {
     normal: Vec3,
-    /// The surface area its source pixel covered at its point (m²; a miss: the pixel's solid
-    /// angle, sr), negative where the side facing the camera was the back of the winding
-    /// ([`footprint`]).
-    area: f32,
-    /// Its triangle's material and instance ([`crate::geometry::STATIC_INSTANCE`] for static
-    /// geometry).
     material: u32,
     instance: u32,
+}
+
+/// [`Tri`] of every triangle of `geo`.
+fn triangle_table(geo: &crate::geometry::Geometry) -> Vec<Tri> {
+    (0..geo.tris.len())
+        .into_par_iter()
+        .map(|i| Tri {
+            normal: triangle_normal(geo, i as u32),
+            material: geo.tris.material(i),
+            instance: geo.tris.instance(i),
+        })
+        .collect()
 }
 
 impl FrameSamples {
@@ -279,14 +288,14 @@ impl FrameSamples {
             film.pixels.iter().all(|p| p.count() == base),
             "a base pass takes the same samples in every pixel"
         );
-        let seen = samples.par_iter().map(|s| footprint(scene, s)).collect();
+        let area = samples.par_iter().map(|s| footprint(scene, s)).collect();
         FrameSamples {
             index: scene.frame.index,
             view: View::of(gbuffer),
             samples,
             start,
             base,
-            seen,
+            area,
         }
     }
 
@@ -302,23 +311,23 @@ impl FrameSamples {
             counts.iter().map(|&c| c as usize).sum::<usize>(),
             samples.len()
         );
-        let new_seen: Vec<Seen> = samples.par_iter().map(|s| footprint(scene, s)).collect();
+        let new_area: Vec<f32> = samples.par_iter().map(|s| footprint(scene, s)).collect();
         let mut merged = Vec::with_capacity(self.samples.len() + samples.len());
-        let mut seen = Vec::with_capacity(merged.capacity());
+        let mut area = Vec::with_capacity(merged.capacity());
         let mut start = Vec::with_capacity(self.start.len());
         start.push(0u32);
         let mut at = 0usize;
         for (i, &c) in counts.iter().enumerate() {
             let own = self.start[i] as usize..self.start[i + 1] as usize;
             merged.extend_from_slice(&self.samples[own.clone()]);
-            seen.extend_from_slice(&self.seen[own]);
+            area.extend_from_slice(&self.area[own]);
             merged.extend_from_slice(&samples[at..at + c as usize]);
-            seen.extend_from_slice(&new_seen[at..at + c as usize]);
+            area.extend_from_slice(&new_area[at..at + c as usize]);
             at += c as usize;
             start.push(merged.len() as u32);
         }
         self.samples = merged;
-        self.seen = seen;
+        self.area = area;
         self.start = start;
     }
 
@@ -400,18 +409,13 @@ impl Px {
     }
 }
 
-/// [`Seen`] of sample `s` of `scene`'s current frame, at the frame's instant: the area is
+/// [`FrameSamples`]'s area of sample `s` of `scene`'s current frame, at the frame's instant:
 /// d² Ω / |cos θ| for a surface at distance d seen at θ from its normal through a pixel of
 /// solid angle Ω, signed as the cosine with the triangle's winding normal; Ω for a miss.
-fn footprint(scene: &Scene, s: &Sample) -> Seen {
+fn footprint(scene: &Scene, s: &Sample) -> f32 {
     let cam = &scene.camera;
     if s.tri == u32::MAX {
-        return Seen {
-            normal: Vec3::ZERO,
-            area: cam.pixel_solid_angle(s.at),
-            material: u32::MAX,
-            instance: crate::geometry::STATIC_INSTANCE,
-        };
+        return cam.pixel_solid_angle(s.at);
     }
     let geo = &scene.geometry;
     let t = scene.frame.time_s as f32;
@@ -422,18 +426,15 @@ fn footprint(scene: &Scene, s: &Sample) -> Seen {
     let view = cam.position - p;
     let cos = world.dot(view.normalize_or_zero());
     let area = cam.pixel_solid_angle(-view) * view.length_squared() / cos.abs().max(MIN_COSINE);
-    Seen {
-        normal,
-        area: if cos < 0.0 { -area } else { area },
-        material: geo.tris.material(s.tri as usize),
-        instance: geo.tris.instance(s.tri as usize),
-    }
+    if cos < 0.0 { -area } else { area }
 }
 
 /// The last K frames' base passes.
 #[derive(Clone, Debug, Default)]
 pub struct ReuseWindow {
     frames: VecDeque<FrameSamples>,
+    /// The scene's [`Tri`]s, made at the first reprojection (a window serves one scene).
+    tris: std::sync::OnceLock<Vec<Tri>>,
 }
 
 impl ReuseWindow {
@@ -471,10 +472,11 @@ impl ReuseWindow {
             .map(|m| reuse_angle(&m.kind))
             .collect();
         let view = View::of(g);
+        let tris = self.tris.get_or_init(|| triangle_table(&scene.geometry));
         let (base, all): (Vec<_>, Vec<_>) = self
             .frames
             .par_iter()
-            .map(|f| splat_frame(scene, (g, &view), f, (&shutter, &angles)))
+            .map(|f| splat_frame(scene, (g, &view), f, (&shutter, &angles, tris)))
             .unzip();
         Reprojected {
             base: Layer::new(base),
@@ -917,7 +919,7 @@ fn splat_frame(
     scene: &Scene,
     (g, view): (&GBuffer, &View),
     f: &FrameSamples,
-    (shutter, angles): (&Shutter, &[f32]),
+    (shutter, angles, tris): (&Shutter, &[f32], &[Tri]),
 ) -> (Vec<Part>, Vec<Part>) {
     let then = scene.camera_at(f.view.time);
     let cos_normal = NORMAL_TOLERANCE_DEG.to_radians().cos();
@@ -930,37 +932,24 @@ fn splat_frame(
         shutter,
         cos_normal,
         angles,
+        tris,
         covered: &covered,
     };
-    // Where each sample lands, computed in parallel by source rows, in the samples' order.
-    let w = f.view.width;
-    let rows: Vec<Vec<Option<Landed>>> = (0..f.view.height)
-        .into_par_iter()
-        .map(|y| {
-            let (a, b) = (f.start[y * w] as usize, f.start[(y + 1) * w] as usize);
-            let mut out = Vec::with_capacity(b - a);
-            for k in y * w..(y + 1) * w {
-                for n in f.start[k] as usize..f.start[k + 1] as usize {
-                    out.push(landing.land(k, n, &f.samples[n]));
-                }
-            }
-            out
-        })
-        .collect();
-    // Summed in the samples' order: the same bytes for any thread count.
+    // Landed and summed in the samples' order, the window's frames in parallel (one task each:
+    // no buffer of landings, and the same bytes for any thread count).
     let mut all = vec![Weighted::default(); g.width * g.height];
     let mut base = all.clone();
-    let mut landed = rows.iter().flatten();
     for k in 0..f.start.len() - 1 {
         let range = f.start[k] as usize..f.start[k + 1] as usize;
         // A source pixel's footprint is shared by its samples: all, or those of its base pass.
         let (n_all, n_base) = (range.len() as f32, f.base as f32);
-        for (n, s) in f.samples[range].iter().enumerate() {
-            if let Some(l) = landed.next().expect("one landing per sample") {
+        for (j, n) in range.enumerate() {
+            let s = &f.samples[n];
+            if let Some(l) = landing.land(k, n, s) {
                 let w = l.share * l.area;
-                all[l.pixel as usize].add(s.rgb, n % 2 == 0, w / n_all);
-                if n < f.base as usize {
-                    base[l.pixel as usize].add(s.rgb, n % 2 == 0, w / n_base);
+                all[l.pixel as usize].add(s.rgb, j % 2 == 0, w / n_all);
+                if j < f.base as usize {
+                    base[l.pixel as usize].add(s.rgb, j % 2 == 0, w / n_base);
                 }
             }
         }
@@ -1146,6 +1135,8 @@ struct Landing<'a> {
     cos_normal: f32,
     /// Per material: how far the view may turn ([`reuse_angle`]).
     angles: &'a [f32],
+    /// The scene's triangles ([`Tri`]).
+    tris: &'a [Tri],
     /// Per pixel of `g`: whether `f` saw all of it ([`covered_by`]).
     covered: &'a [bool],
 }
@@ -1264,29 +1255,29 @@ impl Landing<'_> {
             if !(shown || geo.unoccluded(eye, s.at, f32::INFINITY, t)) {
                 return None;
             }
-            let area = self.f.seen[n].area / self.here().pixel_solid_angle(s.at);
+            let area = self.f.area[n] / self.here().pixel_solid_angle(s.at);
             return Some(Landed::at(i, 1.0, area));
         }
-        let seen = self.f.seen[n];
-        let now = geo.instance_transform(seen.instance, t);
+        let tri = &self.tris[s.tri as usize];
+        let now = geo.instance_transform(tri.instance, t);
         let p = now.map_or(s.at, |m| m.transform_point3(s.at));
         let i = self.pixel(self.shutter.raster(p, s.dt, false)?)?;
         if !self.covered[i] {
             return None;
         }
-        let material = seen.material;
-        let normal = now.map_or(seen.normal, |m| normal_to_world(&m, seen.normal));
+        let material = tri.material;
+        let normal = now.map_or(tri.normal, |m| normal_to_world(&m, tri.normal));
         let eye = self.shutter.position(s.dt);
         let view = eye - p;
         let cos_now = normal.dot(view.normalize_or_zero());
         // The side seen then is the side seen now (a thin wall's other side is another surface).
-        let area_then = seen.area;
+        let area_then = self.f.area[n];
         if cos_now * area_then <= 0.0 {
             return None;
         }
         let angle = self.angles[material as usize];
         if angle < f32::INFINITY {
-            let before = geo.instance_transform(seen.instance, self.f.view.time);
+            let before = geo.instance_transform(tri.instance, self.f.view.time);
             let view_then = self.then.position - before.map_or(s.at, |m| m.transform_point3(s.at));
             // atan2 of the cross and dot products: exact 0 for equal directions.
             if view.cross(view_then).length().atan2(view.dot(view_then)) > angle {
@@ -1296,11 +1287,11 @@ impl Landing<'_> {
         // The point at the frame's instant, when the G-buffer saw its surface.
         let p_inst = match now {
             Some(_) if s.dt != 0.0 => geo
-                .instance_transform(seen.instance, g.time)
+                .instance_transform(tri.instance, g.time)
                 .map_or(p, |m| m.transform_point3(s.at)),
             _ => p,
         };
-        let object = object_index(seen.instance);
+        let object = object_index(tri.instance);
         let sees = |c: usize| {
             let c = &g.px[c];
             c.object == object
