@@ -534,34 +534,56 @@ impl Layer {
     }
 }
 
-/// One window frame's samples at one pixel, compact: per half-buffer the weighted RGB sum
-/// scaled to its effective count ([`Weighted::part`]), that count, and Σ Y² so scaled.
+/// One window frame's samples at one pixel, per half-buffer: Σ w, Σ w², Σ w·RGB and Σ w·Y² of
+/// the samples that landed there with weights w (a window frame gives a pixel tens of samples
+/// at most, well within f32). As history each half is the weighted mean counted as Kish's
+/// effective number of samples, (Σ w)² / Σ w².
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Part {
-    even: [f32; 3],
-    odd: [f32; 3],
-    n: [f32; 2],
-    lum2: f32,
+    w: [f32; 2],
+    w2: [f32; 2],
+    rgb: [Vec3; 2],
+    lum2: [f32; 2],
 }
 
 impl Part {
-    fn weight(&self) -> f64 {
-        (self.n[0] + self.n[1]) as f64
+    /// Adds a sample of radiance `rgb` to half-buffer A (`even`) or B with weight `w`.
+    fn add(&mut self, rgb: Vec3, even: bool, w: f32) {
+        let h = usize::from(!even);
+        let y = crate::math::luminance(rgb);
+        self.w[h] += w;
+        self.w2[h] += w * w;
+        self.rgb[h] += rgb * w;
+        self.lum2[h] += w * y * y;
     }
 
-    /// Luminance of the RGB sum of both halves.
+    /// Half `h`'s effective count and the factor that scales its weighted sums to it.
+    fn count(&self, h: usize) -> (f32, f32) {
+        if self.w[h] <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let n = self.w[h] * self.w[h] / self.w2[h];
+        (n, n / self.w[h])
+    }
+
+    fn weight(&self) -> f64 {
+        (self.count(0).0 + self.count(1).0) as f64
+    }
+
+    /// Luminance of the RGB sum of both halves, as history.
     fn lum(&self) -> f64 {
-        let s = Vec3::from_array(self.even) + Vec3::from_array(self.odd);
+        let s = self.rgb[0] * self.count(0).1 + self.rgb[1] * self.count(1).1;
         crate::math::luminance(s) as f64
     }
 
     fn history(&self) -> HistoryPixel {
+        let ((ne, ke), (no, ko)) = (self.count(0), self.count(1));
         HistoryPixel {
-            sum_even: Vec3::from_array(self.even).as_dvec3(),
-            sum_odd: Vec3::from_array(self.odd).as_dvec3(),
-            n_even: self.n[0] as f64,
-            n_odd: self.n[1] as f64,
-            sum_lum2: self.lum2 as f64,
+            sum_even: (self.rgb[0] * ke).as_dvec3(),
+            sum_odd: (self.rgb[1] * ko).as_dvec3(),
+            n_even: ne as f64,
+            n_odd: no as f64,
+            sum_lum2: (self.lum2[0] * ke + self.lum2[1] * ko) as f64,
         }
     }
 }
@@ -604,7 +626,7 @@ impl Reprojected {
             let reused: Vec<Moments> = f
                 .iter()
                 .zip(lum)
-                .map(|(p, &(l, n))| Moments::of(l, n, p.lum2 as f64))
+                .map(|(p, &(l, n))| Moments::of(l, n, p.history().sum_lum2))
                 .collect();
             let scales: Vec<Pooled> = TEST_RADII
                 .iter()
@@ -937,7 +959,7 @@ fn splat_frame(
     };
     // Landed and summed in the samples' order, the window's frames in parallel (one task each:
     // no buffer of landings, and the same bytes for any thread count).
-    let mut all = vec![Weighted::default(); g.width * g.height];
+    let mut all = vec![Part::default(); g.width * g.height];
     let mut base = all.clone();
     for k in 0..f.start.len() - 1 {
         let range = f.start[k] as usize..f.start[k + 1] as usize;
@@ -954,8 +976,7 @@ fn splat_frame(
             }
         }
     }
-    let history = |v: Vec<Weighted>| v.iter().map(Weighted::part).collect();
-    (history(base), history(all))
+    (base, all)
 }
 
 /// Where a sample lands ([`Landing::land`]): the pixel, the share kept (direct light) and the
@@ -986,47 +1007,6 @@ pub const MAX_AREA_RATIO: f32 = 8.0;
 
 /// Least |cos| between a surface's normal and the view taken in a footprint's area.
 const MIN_COSINE: f32 = 1e-3;
-
-/// One pixel's landed samples, per half-buffer: Σ w, Σ w², Σ w·RGB and Σ w·Y² (a window
-/// frame gives a pixel tens of samples at most, well within f32).
-#[derive(Clone, Copy, Debug, Default)]
-struct Weighted {
-    w: [f32; 2],
-    w2: [f32; 2],
-    rgb: [Vec3; 2],
-    lum2: [f32; 2],
-}
-
-impl Weighted {
-    fn add(&mut self, rgb: Vec3, even: bool, w: f32) {
-        let h = usize::from(!even);
-        let y = crate::math::luminance(rgb);
-        self.w[h] += w;
-        self.w2[h] += w * w;
-        self.rgb[h] += rgb * w;
-        self.lum2[h] += w * y * y;
-    }
-
-    /// As a [`Part`]: each half's weighted mean with the count of equally weighted samples of
-    /// the same variance, (Σ w)² / Σ w² (Kish's effective sample size).
-    fn part(&self) -> Part {
-        let half = |h: usize| -> (Vec3, f32, f32) {
-            if self.w[h] <= 0.0 {
-                return (Vec3::ZERO, 0.0, 0.0);
-            }
-            let n = self.w[h] * self.w[h] / self.w2[h];
-            let k = n / self.w[h];
-            (self.rgb[h] * k, n, self.lum2[h] * k)
-        };
-        let ((se, ne, le), (so, no, lo)) = (half(0), half(1));
-        Part {
-            even: se.to_array(),
-            odd: so.to_array(),
-            n: [ne, no],
-            lum2: le + lo,
-        }
-    }
-}
 
 /// A rest-space normal `n` under transform `m`: by the inverse transpose (scaled objects),
 /// unit.
