@@ -123,6 +123,7 @@ impl GBuffer {
         let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
         let t = scene.frame.time_s as f32;
         let moving = scene.geometry.has_motion();
+        let boxes = scene.geometry.moving_boxes(t);
         let texels: Vec<(Texel, f32)> = (0..w * h)
             .into_par_iter()
             .map(|i| {
@@ -132,7 +133,7 @@ impl GBuffer {
                         .generate_ray((i % w) as u32, (i / w) as u32, Vec2::splat(0.5), t);
                 let texel = trace_centre(scene, &ray, t);
                 let direct = match &texel.hit {
-                    Some(hit) if moving => direct_signature(scene, hit, -ray.d, t),
+                    Some(hit) if moving => direct_signature(scene, hit, -ray.d, t, &boxes),
                     _ => 0.0,
                 };
                 (texel, direct)
@@ -364,8 +365,16 @@ pub fn reuse_angle(kind: &MaterialKind) -> f32 {
 
 /// [`GBuffer::direct`] at `hit`, seen from direction `wo` (towards the camera): the mean of
 /// L·cos/pdf over the fixed light samples (a Kronecker sequence in the light-choice and
-/// position dimensions) whose shadow rays are clear.
-fn direct_signature(scene: &Scene, hit: &crate::geometry::Hit, wo: Vec3, t: f32) -> f32 {
+/// position dimensions) whose shadow rays are clear; NaN where no light sample's segment
+/// meets a box of `moving` (the moving instances at `t`, [`crate::geometry::Geometry::moving_boxes`])
+/// and the surface itself is static.
+fn direct_signature(
+    scene: &Scene,
+    hit: &crate::geometry::Hit,
+    wo: Vec3,
+    t: f32,
+    moving: &[(Vec3, Vec3)],
+) -> f32 {
     let ng = if hit.ng.dot(wo) < 0.0 {
         -hit.ng
     } else {
@@ -378,37 +387,35 @@ fn direct_signature(scene: &Scene, hit: &crate::geometry::Hit, wo: Vec3, t: f32)
     };
     // R3 (Roberts 2018): the plastic-number Kronecker sequence, well spread in 3-D.
     const A: [f32; 3] = [0.819_172_5, 0.671_043_5, 0.549_700_5];
-    let samples: Vec<_> = (0..DIRECT_SAMPLES)
-        .filter_map(|s| {
-            let u = A.map(|a| (a * (s as f32 + 0.5)).fract());
-            let ls = scene.lights.sample(
-                hit.p,
-                ns,
-                u[0],
-                Vec2::new(u[1], u[2]),
-                t,
-                &scene.geometry,
-                &scene.materials,
-                &scene.textures,
-            )?;
-            (ls.le.max_element() > 0.0 && ls.pdf > 0.0 && ls.wi.dot(ng) > 0.0).then_some(ls)
-        })
-        .collect();
+    let samples: [_; DIRECT_SAMPLES as usize] = std::array::from_fn(|s| {
+        let u = A.map(|a| (a * (s as f32 + 0.5)).fract());
+        let ls = scene.lights.sample(
+            hit.p,
+            ns,
+            u[0],
+            Vec2::new(u[1], u[2]),
+            t,
+            &scene.geometry,
+            &scene.materials,
+            &scene.textures,
+        )?;
+        (ls.le.max_element() > 0.0 && ls.pdf > 0.0 && ls.wi.dot(ng) > 0.0).then_some(ls)
+    });
     // Static lights, static occluders: unless a moving object is near the way to a light
     // sample (or the surface itself moves), the direct light here is the same in every frame.
     let geo = &scene.geometry;
     let moves = geo.tris.instance(hit.tri as usize) != crate::geometry::STATIC_INSTANCE;
     let touched = moves
-        || samples.iter().any(|ls| {
+        || samples.iter().flatten().any(|ls| {
             let reach = if ls.dist.is_finite() { ls.dist } else { 1e6 };
-            geo.segment_meets_moving(hit.p, ls.wi * reach, t)
+            crate::geometry::segment_meets_boxes(moving, hit.p, ls.wi * reach)
         });
     if !touched {
         return f32::NAN;
     }
     let mut e = 0.0;
-    for ls in samples {
-        if crate::integrator::shadow_ray_clear(geo, hit, &ls, t) {
+    for ls in samples.iter().flatten() {
+        if crate::integrator::shadow_ray_clear(geo, hit, ls, t) {
             e += crate::math::luminance(ls.le) * ls.wi.dot(ns).max(0.0) / ls.pdf;
         }
     }

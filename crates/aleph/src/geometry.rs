@@ -500,30 +500,29 @@ impl Geometry {
         (inst != STATIC_INSTANCE).then(|| self.instance_of(inst).track.at(time))
     }
 
-    /// Whether the segment from `o` to `o + d` (any length) passes through the world-space
-    /// box of any moving instance posed at `time` (its rest box's transformed corners, boxed).
-    pub fn segment_meets_moving(&self, o: Vec3, d: Vec3, time: f32) -> bool {
-        self.instances.iter().any(|inst| {
-            let m = inst.track.at(time);
-            let (lo, hi) = inst.rest;
-            let (mut bmin, mut bmax) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-            for c in 0..8 {
-                let p = Vec3::new(
-                    if c & 1 == 0 { lo.x } else { hi.x },
-                    if c & 2 == 0 { lo.y } else { hi.y },
-                    if c & 4 == 0 { lo.z } else { hi.z },
-                );
-                let q = m.transform_point3(p);
-                bmin = bmin.min(q);
-                bmax = bmax.max(q);
-            }
-            let inv = d.recip();
-            let t0 = (bmin - o) * inv;
-            let t1 = (bmax - o) * inv;
-            let near = t0.min(t1).max_element().max(0.0);
-            let far = t0.max(t1).min_element().min(1.0);
-            near <= far
-        })
+    /// The world-space boxes of the moving instances posed at `time`: each rest box's eight
+    /// corners transformed and boxed (min, max), one per instance, for [`segment_meets_boxes`].
+    pub fn moving_boxes(&self, time: f32) -> Vec<(Vec3, Vec3)> {
+        self.instances
+            .iter()
+            .map(|inst| {
+                let m = inst.track.at(time);
+                let (lo, hi) = inst.rest;
+                let (mut bmin, mut bmax) =
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                for c in 0..8 {
+                    let p = Vec3::new(
+                        if c & 1 == 0 { lo.x } else { hi.x },
+                        if c & 2 == 0 { lo.y } else { hi.y },
+                        if c & 4 == 0 { lo.z } else { hi.z },
+                    );
+                    let q = m.transform_point3(p);
+                    bmin = bmin.min(q);
+                    bmax = bmax.max(q);
+                }
+                (bmin, bmax)
+            })
+            .collect()
     }
 
     #[inline]
@@ -714,4 +713,17 @@ mod tests {
         t.set_light(3, 7);
         assert_eq!(t.get(3).light, 7);
     }
+}
+
+/// Whether the segment from `o` to `o + d` (any length) passes through any of `boxes`
+/// ((min, max) pairs, e.g. [`Geometry::moving_boxes`]; slab test).
+pub fn segment_meets_boxes(boxes: &[(Vec3, Vec3)], o: Vec3, d: Vec3) -> bool {
+    let inv = d.recip();
+    boxes.iter().any(|&(bmin, bmax)| {
+        let t0 = (bmin - o) * inv;
+        let t1 = (bmax - o) * inv;
+        let near = t0.min(t1).max_element().max(0.0);
+        let far = t0.max(t1).min_element().min(1.0);
+        near <= far
+    })
 }

@@ -628,10 +628,7 @@ impl Reprojected {
                 .zip(lum)
                 .map(|(p, &(l, n))| Moments::of(l, n, p.history().sum_lum2))
                 .collect();
-            let scales: Vec<Pooled> = TEST_RADII
-                .iter()
-                .map(|&r| Pooled::new(&fresh_y, &reused, w, h, r))
-                .collect();
+            let pooled = Pooled::new(&fresh_y, &reused, w, h);
             let verdicts: Vec<(f64, f32)> = (0..w * h)
                 .into_par_iter()
                 .map(|i| {
@@ -639,9 +636,9 @@ impl Reprojected {
                         return (0.0, 0.0);
                     }
                     let start = (1.0f64, 0.0f32);
-                    scales
+                    TEST_RADII
                         .iter()
-                        .map(|p| p.verdict(i))
+                        .map(|&r| pooled.verdict(i, r))
                         .fold(start, |a, b| (a.0.min(b.0), a.1.max(b.1)))
                 })
                 .collect();
@@ -839,48 +836,64 @@ impl Moments {
 }
 
 /// Per pixel where the frame is reused: the fresh and the reused mean luminance and the
-/// variance of their difference, each summed over the pixel's (2r + 1)² neighbourhood with the
-/// number of pixels summed. Every pixel weighs the same on both sides, so the two pooled means
-/// estimate the same average whatever the sample counts (weighting by samples would compare
-/// the history's adaptively sampled pixels against the fresh pass's uniform ones).
+/// variance of their difference, with a count of 1, as one summed-area table of the four
+/// planes (Crow 1984), so that each is summed over any pixel's (2r + 1)² neighbourhood in four
+/// lookups. Every pixel weighs the same on both sides, so the two pooled means estimate the
+/// same average whatever the sample counts (weighting by samples would compare the history's
+/// adaptively sampled pixels against the fresh pass's uniform ones).
 struct Pooled {
-    fresh: Vec<f64>,
-    reused: Vec<f64>,
-    var: Vec<f64>,
-    pixels: Vec<f64>,
+    /// (w + 1) × (h + 1) rows of [fresh, reused, var, pixels] sums, row-major.
+    sat: Vec<[f64; 4]>,
+    w: usize,
+    h: usize,
 }
 
 impl Pooled {
-    fn new(fresh: &[Moments], reused: &[Moments], w: usize, h: usize, r: usize) -> Pooled {
-        let terms: Vec<[f64; 4]> = fresh
-            .iter()
-            .zip(reused)
-            .map(|(f, h)| {
-                let dof = f.dof + h.dof;
-                if f.n <= 0.0 || h.n <= 0.0 || dof <= 0.0 {
-                    return [0.0; 4];
+    fn new(fresh: &[Moments], reused: &[Moments], w: usize, h: usize) -> Pooled {
+        let term = |f: &Moments, h: &Moments| {
+            let dof = f.dof + h.dof;
+            if f.n <= 0.0 || h.n <= 0.0 || dof <= 0.0 {
+                return [0.0; 4];
+            }
+            let s2 = (f.within + h.within) / dof;
+            [f.sum / f.n, h.sum / h.n, s2 * (1.0 / f.n + 1.0 / h.n), 1.0]
+        };
+        let mut sat = vec![[0f64; 4]; (w + 1) * (h + 1)];
+        for y in 0..h {
+            let mut row = [0f64; 4];
+            for x in 0..w {
+                let t = term(&fresh[y * w + x], &reused[y * w + x]);
+                let above = sat[y * (w + 1) + x + 1];
+                let cell = &mut sat[(y + 1) * (w + 1) + x + 1];
+                for k in 0..4 {
+                    row[k] += t[k];
+                    cell[k] = above[k] + row[k];
                 }
-                let s2 = (f.within + h.within) / dof;
-                [f.sum / f.n, h.sum / h.n, s2 * (1.0 / f.n + 1.0 / h.n), 1.0]
-            })
-            .collect();
-        let plane = |k: usize| box_sums(&terms.iter().map(|t| t[k]).collect::<Vec<_>>(), w, h, r);
-        Pooled {
-            fresh: plane(0),
-            reused: plane(1),
-            var: plane(2),
-            pixels: plane(3),
+            }
         }
+        Pooled { sat, w, h }
     }
 
-    /// The share of the reprojected frame kept at pixel `i`, and the disagreement bound (Y).
-    fn verdict(&self, i: usize) -> (f64, f32) {
-        let n = self.pixels[i];
+    /// The four sums over pixel `i`'s (2r + 1)² neighbourhood clipped to the image.
+    fn sums(&self, i: usize, r: usize) -> [f64; 4] {
+        let (w, h) = (self.w, self.h);
+        let (x, y) = (i % w, i / w);
+        let (x0, y0) = (x.saturating_sub(r), y.saturating_sub(r));
+        let (x1, y1) = ((x + r + 1).min(w), (y + r + 1).min(h));
+        let at = |x: usize, y: usize| self.sat[y * (w + 1) + x];
+        let (a, b, c, d) = (at(x1, y1), at(x0, y1), at(x1, y0), at(x0, y0));
+        std::array::from_fn(|k| a[k] - b[k] - c[k] + d[k])
+    }
+
+    /// The share of the reprojected frame kept at pixel `i`, and the disagreement bound (Y),
+    /// pooled over its (2r + 1)² neighbourhood.
+    fn verdict(&self, i: usize, r: usize) -> (f64, f32) {
+        let [fresh, reused, var, n] = self.sums(i, r);
         if n <= 0.0 {
             return (1.0, 0.0);
         }
-        let diff = (self.fresh[i] - self.reused[i]).abs() / n;
-        let se = self.var[i].max(0.0).sqrt() / n;
+        let diff = (fresh - reused).abs() / n;
+        let se = var.max(0.0).sqrt() / n;
         let z = if se > 0.0 {
             diff / se
         } else if diff > 0.0 {
