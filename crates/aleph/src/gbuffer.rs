@@ -124,6 +124,7 @@ impl GBuffer {
         let t = scene.frame.time_s as f32;
         let moving = scene.geometry.has_motion();
         let boxes = scene.geometry.moving_boxes(t);
+        let lights = scene.lights.finite_bounds(&scene.geometry, t);
         let texels: Vec<(Texel, f32)> = (0..w * h)
             .into_par_iter()
             .map(|i| {
@@ -133,7 +134,9 @@ impl GBuffer {
                         .generate_ray((i % w) as u32, (i / w) as u32, Vec2::splat(0.5), t);
                 let texel = trace_centre(scene, &ray, t);
                 let direct = match &texel.hit {
-                    Some(hit) if moving => direct_signature(scene, hit, -ray.d, t, &boxes),
+                    Some(hit) if moving => {
+                        direct_signature(scene, hit, -ray.d, t, (&boxes, lights))
+                    }
                     _ => 0.0,
                 };
                 (texel, direct)
@@ -367,14 +370,21 @@ pub fn reuse_angle(kind: &MaterialKind) -> f32 {
 /// L·cos/pdf over the fixed light samples (a Kronecker sequence in the light-choice and
 /// position dimensions) whose shadow rays are clear; NaN where no light sample's segment
 /// meets a box of `moving` (the moving instances at `t`, [`crate::geometry::Geometry::moving_boxes`])
-/// and the surface itself is static.
+/// and the surface itself is static. `lights`: a sphere holding every light sample's point
+/// ([`crate::light::Lights::finite_bounds`]); where no segment from the point to it can meet a
+/// moving box, no light is sampled.
 fn direct_signature(
     scene: &Scene,
     hit: &crate::geometry::Hit,
     wo: Vec3,
     t: f32,
-    moving: &[(Vec3, Vec3)],
+    (moving, lights): (&[(Vec3, Vec3)], Option<(Vec3, f32)>),
 ) -> f32 {
+    let geo = &scene.geometry;
+    let moves = geo.tris.instance(hit.tri as usize) != crate::geometry::STATIC_INSTANCE;
+    if !moves && lights.is_some_and(|l| !moving.iter().any(|&b| may_meet(hit.p, l, b))) {
+        return f32::NAN;
+    }
     let ng = if hit.ng.dot(wo) < 0.0 {
         -hit.ng
     } else {
@@ -403,8 +413,6 @@ fn direct_signature(
     });
     // Static lights, static occluders: unless a moving object is near the way to a light
     // sample (or the surface itself moves), the direct light here is the same in every frame.
-    let geo = &scene.geometry;
-    let moves = geo.tris.instance(hit.tri as usize) != crate::geometry::STATIC_INSTANCE;
     let touched = moves
         || samples.iter().flatten().any(|ls| {
             let reach = if ls.dist.is_finite() { ls.dist } else { 1e6 };
@@ -420,4 +428,25 @@ fn direct_signature(
         }
     }
     e / DIRECT_SAMPLES as f32
+}
+
+/// Whether a segment from `p` to a point of the sphere `light` (centre, radius) may pass
+/// through the box `(lo, hi)`: false only when none can (the box's bounding sphere lies outside
+/// the cone from `p` around the light's sphere, or beyond its far end). Conservative: the radii
+/// and the angle carry a margin for rounding.
+fn may_meet(p: Vec3, (a, ra): (Vec3, f32), (lo, hi): (Vec3, Vec3)) -> bool {
+    const MARGIN: f32 = 1e-3;
+    let (c, rb) = (0.5 * (lo + hi), 0.5 * (hi - lo).length() * (1.0 + MARGIN));
+    let ra = ra * (1.0 + MARGIN);
+    let (dc, da) = (c - p, a - p);
+    let (lc, la) = (dc.length(), da.length());
+    if lc <= rb || la <= ra {
+        return true;
+    }
+    if lc - rb > (la + ra) * (1.0 + MARGIN) {
+        return false;
+    }
+    let spread = (ra / la).asin() + (rb / lc).asin() + MARGIN;
+    let angle = (dc.dot(da) / (lc * la)).clamp(-1.0, 1.0).acos();
+    angle <= spread
 }

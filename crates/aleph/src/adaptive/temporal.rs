@@ -406,18 +406,20 @@ fn plan(film: &Film, ratio: &[f32], cap: u32) -> Allocation {
 /// effective samples to a common level (never past `cap` fresh samples).
 fn water_fill(alloc: &mut Allocation, film: &Film, ratio: &[f32], remaining: u64, cap: u32) {
     let spare = remaining.saturating_sub(alloc.total());
-    let open: Vec<(usize, f64, u32)> = (0..film.len())
-        .filter(|&i| ratio[i] > 0.0)
-        .map(|i| {
-            let n = film.pixels[i].count() + alloc.want[i];
-            (
-                i,
-                film.effective_count(i) + alloc.want[i] as f64,
-                cap.saturating_sub(n),
-            )
-        })
-        .filter(|&(_, _, room)| room > 0)
-        .collect();
+    let mut open: Vec<(usize, f64, u32)> = Vec::with_capacity(film.len());
+    open.extend(
+        (0..film.len())
+            .filter(|&i| ratio[i] > 0.0)
+            .map(|i| {
+                let n = film.pixels[i].count() + alloc.want[i];
+                (
+                    i,
+                    film.effective_count(i) + alloc.want[i] as f64,
+                    cap.saturating_sub(n),
+                )
+            })
+            .filter(|&(_, _, room)| room > 0),
+    );
     if open.is_empty() || spare == 0 {
         return;
     }

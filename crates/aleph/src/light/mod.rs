@@ -445,6 +445,28 @@ impl Lights {
             Some((bvh, top)) => top.pmf(self.n_infinite) * bvh.pmf(p, n, li as u32),
         }
     }
+    /// A sphere (centre, radius; world units) holding every point [`Lights::sample`] can
+    /// return at scene time `time`: the box of the emissive triangles' world vertices and the
+    /// point and spot lights' positions, bounded. `None` when a light is at infinity (its
+    /// samples have no position).
+    pub fn finite_bounds(&self, geo: &Geometry, time: f32) -> Option<(Vec3, f32)> {
+        if self.n_infinite > 0 {
+            return None;
+        }
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for light in &self.lights {
+            let points = match light {
+                Light::Triangle(t) => t.shape(geo, time).0,
+                Light::Point(p) => [p.position; 3],
+                Light::Environment(_) | Light::Sun(_) => return None,
+            };
+            for q in points {
+                lo = lo.min(q);
+                hi = hi.max(q);
+            }
+        }
+        (lo.cmple(hi).all()).then(|| (0.5 * (lo + hi), 0.5 * (hi - lo).length()))
+    }
 
     /// Samples a light as seen from `p_ref` (shading normal `n_ref`, or zero) at scene time
     /// `time` (moving emitters are where they are then). `u` gives the point or direction on
