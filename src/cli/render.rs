@@ -712,8 +712,8 @@ pub(super) fn summary_line(
                 100.0 * result.converged_fraction
             ),
             None if result.reuse.is_some() => format!(
-                "only the camera moves, budget under --steer-from {} spp: fresh samples levelled with \
-                 the reused ones, nothing judged",
+                "budget under --steer-from {} spp: fresh samples levelled with the reused ones, \
+                 nothing judged",
                 settings.steer_from_spp
             ),
             None if settings.criterion != Criterion::Uniform && !settings.steers() => format!(

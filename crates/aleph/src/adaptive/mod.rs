@@ -11,8 +11,7 @@
 //! # The loop
 //! 0. A sample budget under `steer_from_spp` ([`STEER_FROM_SPP`], 128) is rendered uniformly
 //!    in one pass and nothing is judged: below it the decisions cost more than they save (a
-//!    frame reusing earlier frames where only the camera moves levels its samples instead:
-//!    [`render_reusing`]).
+//!    frame reusing earlier frames levels its samples instead: [`render_reusing`]).
 //! 1. A uniform pass of `min_spp` samples.
 //! 2. Each pass: the error estimate from the two half-buffers (even and odd samples) is
 //!    e = |Y(A) − Y(B)| / 2 in scene luminance; the ratio r = e / threshold, averaged over 3×3
@@ -193,8 +192,8 @@ pub struct AdaptiveSettings {
     /// The smallest average budget the adaptive samplers steer (default [`STEER_FROM_SPP`]):
     /// a smaller `budget_spp` is rendered uniformly, every pixel `budget_spp` samples, and
     /// nothing is judged (the image is the uniform sampler's, bit for bit); a frame that
-    /// reuses earlier frames of a scene where only the camera moves levels its fresh samples
-    /// with the reused ones instead ([`render_reusing`]), nothing judged either. 0 steers
+    /// reuses earlier frames levels its fresh samples with the reused ones instead
+    /// ([`render_reusing`]), nothing judged either. 0 steers
     /// every budget. No effect without a
     /// budget (until converged, or a time budget).
     pub steer_from_spp: f64,
