@@ -60,6 +60,16 @@ def load(path):
     return np.asarray(Image.open(path).convert("RGB"))
 
 
+def load_runs(cache):
+    """{stem: (spp, wall seconds)} of the renders cached in `cache` (runs.csv), if it exists."""
+    measured = {}
+    if os.path.exists(cache):
+        with open(cache) as f:
+            for r in csv.DictReader(f):
+                measured[r["stem"]] = (float(r["spp"]), float(r["wall_s"]))
+    return measured
+
+
 def interpolate(curve, target, better_low):
     """The x (spp or seconds) at which the uniform `curve` [(x, score)] reaches `target`:
     log-log interpolation of x against the score (FLIP) or against 10 - JOD."""
@@ -99,12 +109,8 @@ def main():
     runs.append(("floor", args.reference_spp, "reference-seed2",
                  ["--sampler", "uniform", "--spp", str(args.reference_spp), "--seed", "2"]))
 
-    measured = {}
     cache = os.path.join(args.out, "runs.csv")
-    if os.path.exists(cache):
-        with open(cache) as f:
-            for r in csv.DictReader(f):
-                measured[r["stem"]] = (float(r["spp"]), float(r["wall_s"]))
+    measured = load_runs(cache)
     for arm, budget, stem, extra in runs:
         if stem in measured and os.path.exists(os.path.join(args.out, stem + ".png")):
             continue
