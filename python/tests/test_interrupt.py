@@ -11,9 +11,13 @@ import pytest
 
 import aleph
 
+# The child raises KeyboardInterrupt on SIGINT whatever it inherits: a shell without job control
+# starts background commands with SIGINT ignored, and Python then installs no handler (a CI
+# script run in the background failed this test that way, the render running on for minutes).
 SCRIPT = textwrap.dedent(
     """
-    import sys, aleph
+    import signal, sys, aleph
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     started = False
     def progress(p):
         global started
