@@ -527,14 +527,7 @@ pub fn sweep(
         _ => None,
     };
     let course = sequence.as_ref().map(Sequence::course);
-    let every: &[Arm] = if course.is_some() && spec.reuse_window > 0 {
-        &Arm::ALL
-    } else if course.is_some() {
-        &Arm::ALL[..4]
-    } else {
-        &Arm::ALL[..3]
-    };
-    let arms = chosen_arms(every, spec.arms.as_deref())?;
+    let arms = sweep_arms(course.is_some(), spec)?;
     let arms = arms.as_slice();
     let default_op = if course.is_some() {
         Operator::Ptyg
@@ -578,18 +571,7 @@ pub fn sweep(
         tone.adaptation_state = adaptation;
         // Only a sweep with a ceiling (three uniform budgets or more) uses the cost map.
         if k == 0 && spec.budgets.len() >= 3 {
-            let t = Instant::now();
-            // The median over 5 × 5 pixels: a single pixel's time over 16 paths is mostly
-            // noise (two Cornell-box maps correlate at 0.09) and stalls of the machine put
-            // spikes in it, which the least-time allocation would exploit; the filtered maps
-            // correlate at 0.99 (a 5 × 5 mean: 0.61).
-            let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-            let raw = pixel_costs(&scene, Strategy::Mis, COST_SPP);
-            st.cost = Some(aleph::imaging::median_filter(&raw, w, h, 2));
-            log(&format!(
-                "pixel costs: {COST_SPP} spp per pixel timed in {:.2} s",
-                t.elapsed().as_secs_f64()
-            ));
+            st.cost = Some(cost_map(&scene, log));
         }
         let key = frame_key(&scene_key, frame);
         let ref_path = dir.join(format!("reference-{key}.exr"));
@@ -620,6 +602,37 @@ pub fn sweep(
         width: scene.camera.width as usize,
         height: scene.camera.height as usize,
     })
+}
+
+/// The arms a sweep renders: those `spec.arms` names (all by default) among what the scene
+/// allows: uniform, variance and perceptual for a still; the perceptual sampler without
+/// velocity too for a sequence, and reuse when its window is above 0.
+fn sweep_arms(sequence: bool, spec: &SweepSpec) -> Result<Vec<Arm>, SpeedupError> {
+    let every: &[Arm] = if sequence && spec.reuse_window > 0 {
+        &Arm::ALL
+    } else if sequence {
+        &Arm::ALL[..4]
+    } else {
+        &Arm::ALL[..3]
+    };
+    chosen_arms(every, spec.arms.as_deref())
+}
+
+/// Each pixel's cost per sample (seconds, [`pixel_costs`] over [`COST_SPP`] paths), median
+/// filtered over 5 × 5 pixels: a single pixel's time over 16 paths is mostly noise (two
+/// Cornell-box maps correlate at 0.09) and stalls of the machine put spikes in it, which the
+/// least-time allocation would exploit; the filtered maps correlate at 0.99 (a 5 × 5 mean:
+/// 0.61).
+fn cost_map(scene: &Scene, log: &dyn Fn(&str)) -> Vec<f32> {
+    let t = Instant::now();
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let raw = pixel_costs(scene, Strategy::Mis, COST_SPP);
+    let cost = aleph::imaging::median_filter(&raw, w, h, 2);
+    log(&format!(
+        "pixel costs: {COST_SPP} spp per pixel timed in {:.2} s",
+        t.elapsed().as_secs_f64()
+    ));
+    cost
 }
 
 /// One row per budget and arm, in that order, from the accumulated scores.

@@ -338,6 +338,27 @@ impl Integrator {
         }
     }
 
+    /// The radiance a path sees emitted at `hit` (before its throughput) and its MIS weight
+    /// against light sampling (1 when the previous vertex `(delta, pdf, point, normal)` was
+    /// specular).
+    #[inline]
+    fn emitted_seen(
+        &self,
+        scene: &Scene,
+        hit: &crate::geometry::Hit,
+        time: f32,
+        material: &crate::material::Material,
+        (prev_delta, prev_pdf, prev_p, prev_n): (bool, f32, Vec3, Vec3),
+    ) -> (Vec3, f32) {
+        let le = material.emitted(hit.uv, &scene.textures);
+        let w = if prev_delta {
+            1.0
+        } else {
+            self.emission_weight(scene, hit, time, prev_pdf, (prev_p, prev_n))
+        };
+        (le, w)
+    }
+
     /// Estimates the radiance arriving along `ray`.
     /// `rng` gives the path's canonical random numbers in order: per vertex the light choice
     /// (1-D; passed over unless [`crate::light::Lights::chooses_with_own_sample`], the point's
@@ -374,12 +395,8 @@ impl Integrator {
 
             // Emission seen along the ray (one-sided: front face only).
             if geo.tris.light(tri) != u32::MAX && wo_world.dot(hit.ng) > 0.0 {
-                let le = material.emitted(hit.uv, &scene.textures);
-                let w = if prev_delta {
-                    1.0
-                } else {
-                    self.emission_weight(scene, &hit, ray.time, prev_pdf, (prev_p, prev_n))
-                };
+                let prev = (prev_delta, prev_pdf, prev_p, prev_n);
+                let (le, w) = self.emitted_seen(scene, &hit, ray.time, material, prev);
                 l += beta * le * w;
             }
             if depth >= self.max_depth {
@@ -450,12 +467,9 @@ impl Integrator {
 
             eta_scale *= s.eta * s.eta;
             if depth >= RR_START_DEPTH {
-                // Survival follows the throughput with the refractions' 1/η² compression
-                // undone (pbrt-v4's etaScale): a path inside glass is not dimmer, only denser.
-                let q = (beta * eta_scale).max_element().clamp(0.05, 1.0);
-                if rng.uniform() >= q {
+                let Some(q) = roulette(beta, eta_scale, rng) else {
                     break;
-                }
+                };
                 beta /= q;
             }
         }
@@ -465,4 +479,14 @@ impl Integrator {
             first,
         }
     }
+}
+
+/// Russian roulette (one canonical number from `rng`): the survival probability q, or `None`
+/// when the path ends. q follows the throughput `beta` with the refractions' 1/η² compression
+/// undone (`eta_scale`, pbrt-v4's etaScale): a path inside glass is not dimmer, only denser;
+/// clamped to [0.05, 1]. The survivor's throughput is divided by q.
+#[inline]
+fn roulette(beta: Vec3, eta_scale: f32, rng: &mut impl Sampler) -> Option<f32> {
+    let q = (beta * eta_scale).max_element().clamp(0.05, 1.0);
+    (rng.uniform() < q).then_some(q)
 }

@@ -676,11 +676,13 @@ fn outlier_floors(layer: &Layer, fresh_y: &[Moments], (w, h): (usize, usize)) ->
             if n > 0.0 { sum / n } else { 0.0 }
         })
         .collect();
-    let ones = vec![1.0; w * h];
-    let (sums, counts) = (box_sums(&means, w, h, 1), box_sums(&ones, w, h, 1));
-    sums.iter()
-        .zip(&counts)
-        .map(|(s, c)| (s / c).max(floor))
+    let sat = SummedArea::new(w, h, |i| [means[i], 1.0]);
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let [sum, count] = sat.sums(i, 1);
+            (sum / count).max(floor)
+        })
         .collect()
 }
 
@@ -841,54 +843,25 @@ impl Moments {
 /// lookups. Every pixel weighs the same on both sides, so the two pooled means estimate the
 /// same average whatever the sample counts (weighting by samples would compare the history's
 /// adaptively sampled pixels against the fresh pass's uniform ones).
-struct Pooled {
-    /// (w + 1) × (h + 1) rows of [fresh, reused, var, pixels] sums, row-major.
-    sat: Vec<[f64; 4]>,
-    w: usize,
-    h: usize,
-}
+struct Pooled(SummedArea<4>);
 
 impl Pooled {
     fn new(fresh: &[Moments], reused: &[Moments], w: usize, h: usize) -> Pooled {
-        let term = |f: &Moments, h: &Moments| {
+        Pooled(SummedArea::new(w, h, |i| {
+            let (f, h) = (&fresh[i], &reused[i]);
             let dof = f.dof + h.dof;
             if f.n <= 0.0 || h.n <= 0.0 || dof <= 0.0 {
                 return [0.0; 4];
             }
             let s2 = (f.within + h.within) / dof;
             [f.sum / f.n, h.sum / h.n, s2 * (1.0 / f.n + 1.0 / h.n), 1.0]
-        };
-        let mut sat = vec![[0f64; 4]; (w + 1) * (h + 1)];
-        for y in 0..h {
-            let mut row = [0f64; 4];
-            for x in 0..w {
-                let t = term(&fresh[y * w + x], &reused[y * w + x]);
-                let above = sat[y * (w + 1) + x + 1];
-                let cell = &mut sat[(y + 1) * (w + 1) + x + 1];
-                for k in 0..4 {
-                    row[k] += t[k];
-                    cell[k] = above[k] + row[k];
-                }
-            }
-        }
-        Pooled { sat, w, h }
-    }
-
-    /// The four sums over pixel `i`'s (2r + 1)² neighbourhood clipped to the image.
-    fn sums(&self, i: usize, r: usize) -> [f64; 4] {
-        let (w, h) = (self.w, self.h);
-        let (x, y) = (i % w, i / w);
-        let (x0, y0) = (x.saturating_sub(r), y.saturating_sub(r));
-        let (x1, y1) = ((x + r + 1).min(w), (y + r + 1).min(h));
-        let at = |x: usize, y: usize| self.sat[y * (w + 1) + x];
-        let (a, b, c, d) = (at(x1, y1), at(x0, y1), at(x1, y0), at(x0, y0));
-        std::array::from_fn(|k| a[k] - b[k] - c[k] + d[k])
+        }))
     }
 
     /// The share of the reprojected frame kept at pixel `i`, and the disagreement bound (Y),
     /// pooled over its (2r + 1)² neighbourhood.
     fn verdict(&self, i: usize, r: usize) -> (f64, f32) {
-        let [fresh, reused, var, n] = self.sums(i, r);
+        let [fresh, reused, var, n] = self.0.sums(i, r);
         if n <= 0.0 {
             return (1.0, 0.0);
         }
@@ -911,27 +884,44 @@ impl Pooled {
     }
 }
 
-/// Sums of `v` over each pixel's (2r + 1)² neighbourhood clipped to the image (a summed-area
-/// table, Crow 1984).
-fn box_sums(v: &[f64], w: usize, h: usize, r: usize) -> Vec<f64> {
-    let mut sat = vec![0f64; (w + 1) * (h + 1)];
-    for y in 0..h {
-        let mut row = 0.0;
-        for x in 0..w {
-            row += v[y * w + x];
-            sat[(y + 1) * (w + 1) + x + 1] = sat[y * (w + 1) + x + 1] + row;
+/// N planes of per-pixel values as one summed-area table (Crow 1984), so that each is summed
+/// over any pixel's (2r + 1)² neighbourhood, clipped to the image, in four lookups.
+struct SummedArea<const N: usize> {
+    /// (w + 1) × (h + 1) rows of sums, row-major.
+    sat: Vec<[f64; N]>,
+    w: usize,
+    h: usize,
+}
+
+impl<const N: usize> SummedArea<N> {
+    /// The table of `term(i)` for the w × h pixels i (row-major).
+    fn new(w: usize, h: usize, term: impl Fn(usize) -> [f64; N]) -> SummedArea<N> {
+        let mut sat = vec![[0f64; N]; (w + 1) * (h + 1)];
+        for y in 0..h {
+            let mut row = [0f64; N];
+            for x in 0..w {
+                let t = term(y * w + x);
+                let above = sat[y * (w + 1) + x + 1];
+                let cell = &mut sat[(y + 1) * (w + 1) + x + 1];
+                for k in 0..N {
+                    row[k] += t[k];
+                    cell[k] = above[k] + row[k];
+                }
+            }
         }
+        SummedArea { sat, w, h }
     }
-    (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            let (x0, y0) = (x.saturating_sub(r), y.saturating_sub(r));
-            let (x1, y1) = ((x + r + 1).min(w), (y + r + 1).min(h));
-            let at = |x: usize, y: usize| sat[y * (w + 1) + x];
-            at(x1, y1) - at(x0, y1) - at(x1, y0) + at(x0, y0)
-        })
-        .collect()
+
+    /// The N sums over pixel `i`'s (2r + 1)² neighbourhood clipped to the image.
+    fn sums(&self, i: usize, r: usize) -> [f64; N] {
+        let (w, h) = (self.w, self.h);
+        let (x, y) = (i % w, i / w);
+        let (x0, y0) = (x.saturating_sub(r), y.saturating_sub(r));
+        let (x1, y1) = ((x + r + 1).min(w), (y + r + 1).min(h));
+        let at = |x: usize, y: usize| self.sat[y * (w + 1) + x];
+        let (a, b, c, d) = (at(x1, y1), at(x0, y1), at(x1, y0), at(x0, y0));
+        std::array::from_fn(|k| a[k] - b[k] - c[k] + d[k])
+    }
 }
 
 fn luminance(v: DVec3) -> f64 {
