@@ -238,40 +238,7 @@ fn deliver_frame(
     observer: &dyn Observer,
     result: &AdaptiveResult,
 ) -> Result<Vec<u8>, JobError> {
-    let (display, words) = match stem {
-        Some(stem) => {
-            // The loop denoised the image when it judged the denoised error; a frame that
-            // reused earlier frames is denoised here.
-            let t = std::time::Instant::now();
-            let late = match (&result.denoised, job.denoises()) {
-                (None, true) => Some(crate::denoise::denoise_render(
-                    scene,
-                    result.film.mean_rgb(),
-                )?),
-                _ => None,
-            };
-            let denoised = result.denoised.as_ref().or(late.as_ref());
-            let denoise_s = (t.elapsed() + result.denoise_time).as_secs_f64();
-            let w = write_render(
-                scene,
-                stem,
-                settings,
-                result,
-                look,
-                job.output.aov,
-                denoised,
-            )?;
-            let words = match denoised {
-                Some(_) => format!(
-                    "{}; denoised by Open Image Denoise in {denoise_s:.2} s",
-                    w.look
-                ),
-                None => w.look,
-            };
-            (w.display, words)
-        }
-        None => (Vec::new(), look.describe()),
-    };
+    let (display, words) = write_frame(job, scene, settings, look, stem, result)?;
     observer.frame_done(&FrameDone {
         scene,
         settings,
@@ -281,6 +248,112 @@ fn deliver_frame(
         display: look,
     });
     Ok(display)
+}
+
+/// Writes a rendered frame's files to `stem` (if any): the display image (empty without a
+/// stem) and words for the summary.
+fn write_frame(
+    job: &RenderJob,
+    scene: &Scene,
+    settings: &AdaptiveSettings,
+    look: Look,
+    stem: Option<&Path>,
+    result: &AdaptiveResult,
+) -> Result<(Vec<u8>, String), JobError> {
+    let Some(stem) = stem else {
+        return Ok((Vec::new(), look.describe()));
+    };
+    // The loop denoised the image when it judged the denoised error; a frame that reused
+    // earlier frames is denoised here.
+    let t = std::time::Instant::now();
+    let late = match (&result.denoised, job.denoises()) {
+        (None, true) => Some(crate::denoise::denoise_render(
+            scene,
+            result.film.mean_rgb(),
+        )?),
+        _ => None,
+    };
+    let denoised = result.denoised.as_ref().or(late.as_ref());
+    let denoise_s = (t.elapsed() + result.denoise_time).as_secs_f64();
+    let w = write_render(
+        scene,
+        stem,
+        settings,
+        result,
+        look,
+        job.output.aov,
+        denoised,
+    )?;
+    let words = match denoised {
+        Some(_) => format!(
+            "{}; denoised by Open Image Denoise in {denoise_s:.2} s",
+            w.look
+        ),
+        None => w.look,
+    };
+    Ok((w.display, words))
+}
+
+/// What writing a frame's files gave: its display image and words for the summary
+/// ([`write_frame`]).
+type Written = Result<(Vec<u8>, String), JobError>;
+
+/// A frame of a sequence, rendered, whose files are written while the next frame renders
+/// ([`render_sequence`]).
+struct Rendered {
+    frame: crate::sequence::FrameContext,
+    settings: AdaptiveSettings,
+    look: Look,
+    stem: Option<PathBuf>,
+    result: AdaptiveResult,
+}
+
+impl Rendered {
+    /// Writes the frame's files ([`write_frame`]).
+    fn write(&self, job: &RenderJob) -> Written {
+        let (scene, stem) = (&self.frame.scene, self.stem.as_deref());
+        write_frame(job, scene, &self.settings, self.look, stem, &self.result)
+    }
+
+    /// Reports the written frame to `observer` (on the driver's thread, as the observer
+    /// expects); returns its display image.
+    fn report(self, (display, words): (Vec<u8>, String), observer: &dyn Observer) -> Vec<u8> {
+        observer.frame_done(&FrameDone {
+            scene: &self.frame.scene,
+            settings: &self.settings,
+            result: &self.result,
+            stem: self.stem.as_deref(),
+            look: &words,
+            display: self.look,
+        });
+        display
+    }
+}
+
+/// Runs `render` on this thread while `pending`'s files are written on another (a frame's
+/// EXR and PNG are compressed by one thread, 10–15 % of a sequence's wall time at preview
+/// resolutions, during which the render's other threads would wait); without rendering
+/// threads to spare (`--threads 1`), one after the other.
+fn overlapped<R: Send>(
+    job: &RenderJob,
+    pending: Option<&Rendered>,
+    render: impl FnOnce() -> R + Send,
+) -> (R, Option<Written>) {
+    let Some(p) = pending else {
+        return (render(), None);
+    };
+    if rayon::current_num_threads() < 2 {
+        let written = p.write(job);
+        return (render(), Some(written));
+    }
+    std::thread::scope(|s| {
+        let writer = s.spawn(|| p.write(job));
+        let r = render();
+        let written = writer
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        (r, Some(written))
+    })
 }
 
 /// The adaptive loop with the observer's progress: independent of other frames, or reusing
@@ -321,7 +394,7 @@ fn render_sequence(
     let sequence = Sequence::new(scene, warm, last)?;
     observer.sequence_started(first, last);
     let stem = job.output.stem.as_deref();
-    let mut displays = Vec::new();
+    let (mut pending, mut finished) = (None, Vec::new());
     let (mut samples, mut pixels, mut perception) = (0u64, 0u64, Duration::ZERO);
     let mut window = crate::reuse::ReuseWindow::new();
     for frame in sequence.frames() {
@@ -340,29 +413,33 @@ fn render_sequence(
             continue;
         }
         let fstem = stem.map(|s| numbered(s, frame.index));
-        let (result, base) = adaptive(
-            &frame.scene,
-            &settings,
-            (k > 0).then_some(&window),
-            observer,
-        )?;
+        let reused = (k > 0).then_some(&window);
+        let (rendered, written) = overlapped(job, pending.as_ref(), || {
+            adaptive(&frame.scene, &settings, reused, observer)
+        });
+        if let (Some(p), Some(written)) = (pending.take(), written) {
+            finished.push(p.report(written?, observer));
+        }
+        let (result, base) = rendered?;
         if let Some(base) = base.filter(|_| frame.index < last) {
             window.push(base);
         }
-        let display = deliver_frame(
-            job,
-            &frame.scene,
-            &settings,
-            look,
-            fstem.as_deref(),
-            observer,
-            &result,
-        )?;
         samples += result.film.total_samples();
         pixels += result.film.len() as u64;
         perception += result.decision_time;
-        displays.push((frame.index, display));
+        pending = Some(Rendered {
+            frame,
+            settings,
+            look,
+            stem: fstem,
+            result,
+        });
     }
+    if let Some(p) = pending {
+        let written = p.write(job)?;
+        finished.push(p.report(written, observer));
+    }
+    let displays: Vec<(i64, Vec<u8>)> = (first..=last).zip(finished).collect();
     let previews = match stem {
         Some(stem) if job.output.sequence_outputs => {
             let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
