@@ -3,6 +3,7 @@
 # a virtual environment ($ALEPH_VENV, default python/.venv), `pip install ./python[test,examples]`
 # (maturin, fetched by pip from the package registry, builds the extension from these sources
 # with cargo), the pytest suite, then the example, which must produce its figure.
+# MATURIN_PEP517_ARGS="--features denoise" (after scripts/oidn.sh) builds it with the denoiser.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv=${ALEPH_VENV:-python/.venv}

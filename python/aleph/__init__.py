@@ -37,8 +37,11 @@ from ._aleph import (
 )
 
 __version__ = _aleph.__version__
+#: Whether this build has Open Image Denoise (``denoise=True``, denoised previews).
+DENOISER: bool = _aleph.DENOISER
 
 __all__ = [
+    "DENOISER",
     "AlephError",
     "DiffResult",
     "JobError",

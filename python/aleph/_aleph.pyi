@@ -9,6 +9,9 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
+#: Whether this build has Open Image Denoise (the Rust feature ``denoise``): ``denoise=True``
+#: and denoised previews need it.
+DENOISER: bool
 
 class AlephError(Exception):
     """Base class of aleph's errors; the message names the file, frame or setting."""
@@ -50,8 +53,10 @@ class RenderJob:
         ppd: pixels per degree of the viewer (``--ppd``).
         output: also write OUTPUT.exr and OUTPUT.png (``-o``; numbered for frames).
         aov: also write the false-colour OUTPUT.spp.png and OUTPUT.ratio.png (``--aov``).
-        denoise: denoise with Open Image Denoise (``--denoise``; a JobError in a build without
-            the ``denoise`` feature, which this package's build is).
+        denoise: denoise with Open Image Denoise (``--denoise``): ``rgb`` is the denoised
+            image and the aovs add ``Noisy.R/G/B`` (the render), ``Denoising Albedo.R/G/B``
+            and ``Denoising Normal.X/Y/Z``; a JobError unless ``DENOISER`` (a build with the
+            ``denoise`` feature, docs/python.md).
         preview: a progressive preview of a still (``--preview``): the perceptual sampler from
             2 spp, OUTPUT.png rewritten atomically after every pass until the perceptual stop
             or ``time``; a JobError with frames, another sampler or an animated scene.

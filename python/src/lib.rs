@@ -75,6 +75,7 @@ pub(crate) fn perception_error(e: perception::PerceptionError) -> PyErr {
 fn _aleph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("DENOISER", aleph::denoise::AVAILABLE)?;
     m.add("AlephError", py.get_type::<AlephError>())?;
     m.add("SceneError", py.get_type::<SceneError>())?;
     m.add("JobError", py.get_type::<JobError>())?;

@@ -147,8 +147,16 @@ impl Observer for Collector {
 fn frame_out(done: &FrameDone<'_>) -> PyResult<FrameOut> {
     let (scene, r) = (done.scene, done.result);
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    let rgb = r.film.mean_rgb();
-    let (channels, attributes) = aleph::deliver::exr_layers(scene, done.settings, r);
+    // The image the outputs show: denoised when the job denoises, the raw render kept as
+    // `Noisy.R/G/B` beside the denoiser's albedo and normal, as in the EXR.
+    let (rgb, (mut channels, mut attributes)) = (
+        done.denoised
+            .map_or_else(|| r.film.mean_rgb(), |d| d.rgb.clone()),
+        aleph::deliver::exr_layers(scene, done.settings, r),
+    );
+    if let Some(d) = done.denoised {
+        aleph::deliver::denoise_layers(d, &mut channels, &mut attributes);
+    }
     let (display, _) = aleph::deliver::display_image(&rgb, w, h, done.display)
         .map_err(|e| crate::OutputError::new_err(e.to_string()))?;
     let mut stats = vec![

@@ -271,7 +271,11 @@ def test_preview_rewrites_the_png_and_ends_on_time(tmp_path, cornell):
     "kw,words",
     [
         ({"preview": True, "sampler": "uniform"}, "--preview"),
-        ({"denoise": True}, "--features denoise"),
+        pytest.param(
+            {"denoise": True},
+            "--features denoise",
+            marks=pytest.mark.skipif(aleph.DENOISER, reason="built with the denoiser"),
+        ),
     ],
 )
 def test_preview_and_denoise_refusals(cornell, kw, words):

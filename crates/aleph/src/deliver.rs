@@ -169,8 +169,11 @@ pub fn exr_layers(
     (extra, attributes)
 }
 
-/// A denoised render's layers: the raw render and the denoiser's auxiliary images.
-fn denoise_layers(
+/// A denoised render's layers, as [`write_render`] adds them to [`exr_layers`]' (the Python
+/// bindings return the same planes): the raw render `Noisy.R/G/B` and the denoiser's
+/// auxiliary images `Denoising Albedo.R/G/B` and `Denoising Normal.X/Y/Z`, each a row-major
+/// `width × height` plane, and the `denoiser` attribute.
+pub fn denoise_layers(
     d: &crate::denoise::Denoised,
     extra: &mut Vec<(String, ChannelData)>,
     attributes: &mut Vec<(String, String)>,

@@ -238,20 +238,26 @@ fn deliver_frame(
     observer: &dyn Observer,
     result: &AdaptiveResult,
 ) -> Result<Vec<u8>, JobError> {
-    let (display, words) = write_frame(job, scene, settings, look, stem, result)?;
-    observer.frame_done(&FrameDone {
-        scene,
-        settings,
-        result,
-        stem,
-        look: &words,
-        display: look,
-    });
-    Ok(display)
+    let written = write_frame(job, scene, settings, look, stem, result)?;
+    Ok(report(
+        observer,
+        (scene, settings, look, stem, result),
+        written,
+    ))
 }
 
-/// Writes a rendered frame's files to `stem` (if any): the display image (empty without a
-/// stem) and words for the summary.
+/// What writing a frame gave ([`write_frame`]): the display image (empty without a stem),
+/// words for the summary, and the image denoised after the loop (when the job denoises and
+/// the loop did not).
+struct Written {
+    display: Vec<u8>,
+    words: String,
+    late: Option<crate::denoise::Denoised>,
+}
+
+/// Denoises a rendered frame when the job asks and its loop did not (a frame that reused
+/// earlier frames, a budget rendered uniformly), with or without files to write; then
+/// writes its files to `stem` (if any).
 fn write_frame(
     job: &RenderJob,
     scene: &Scene,
@@ -259,12 +265,7 @@ fn write_frame(
     look: Look,
     stem: Option<&Path>,
     result: &AdaptiveResult,
-) -> Result<(Vec<u8>, String), JobError> {
-    let Some(stem) = stem else {
-        return Ok((Vec::new(), look.describe()));
-    };
-    // The loop denoised the image when it judged the denoised error; a frame that reused
-    // earlier frames is denoised here.
+) -> Result<Written, JobError> {
     let t = std::time::Instant::now();
     let late = match (&result.denoised, job.denoises()) {
         (None, true) => Some(crate::denoise::denoise_render(
@@ -275,6 +276,14 @@ fn write_frame(
     };
     let denoised = result.denoised.as_ref().or(late.as_ref());
     let denoise_s = (t.elapsed() + result.denoise_time).as_secs_f64();
+    let Some(stem) = stem else {
+        let words = look.describe();
+        return Ok(Written {
+            display: Vec::new(),
+            words,
+            late,
+        });
+    };
     let w = write_render(
         scene,
         stem,
@@ -291,12 +300,36 @@ fn write_frame(
         ),
         None => w.look,
     };
-    Ok((w.display, words))
+    Ok(Written {
+        display: w.display,
+        words,
+        late,
+    })
 }
 
-/// What writing a frame's files gave: its display image and words for the summary
-/// ([`write_frame`]).
-type Written = Result<(Vec<u8>, String), JobError>;
+/// Reports a written frame to `observer`; returns its display image.
+fn report(
+    observer: &dyn Observer,
+    (scene, settings, look, stem, result): (
+        &Scene,
+        &AdaptiveSettings,
+        Look,
+        Option<&Path>,
+        &AdaptiveResult,
+    ),
+    written: Written,
+) -> Vec<u8> {
+    observer.frame_done(&FrameDone {
+        scene,
+        settings,
+        result,
+        stem,
+        look: &written.words,
+        display: look,
+        denoised: result.denoised.as_ref().or(written.late.as_ref()),
+    });
+    written.display
+}
 
 /// A frame of a sequence, rendered, whose files are written while the next frame renders
 /// ([`render_sequence`]).
@@ -310,23 +343,22 @@ struct Rendered {
 
 impl Rendered {
     /// Writes the frame's files ([`write_frame`]).
-    fn write(&self, job: &RenderJob) -> Written {
+    fn write(&self, job: &RenderJob) -> Result<Written, JobError> {
         let (scene, stem) = (&self.frame.scene, self.stem.as_deref());
         write_frame(job, scene, &self.settings, self.look, stem, &self.result)
     }
 
     /// Reports the written frame to `observer` (on the driver's thread, as the observer
     /// expects); returns its display image.
-    fn report(self, (display, words): (Vec<u8>, String), observer: &dyn Observer) -> Vec<u8> {
-        observer.frame_done(&FrameDone {
-            scene: &self.frame.scene,
-            settings: &self.settings,
-            result: &self.result,
-            stem: self.stem.as_deref(),
-            look: &words,
-            display: self.look,
-        });
-        display
+    fn report(self, written: Written, observer: &dyn Observer) -> Vec<u8> {
+        let frame = (
+            &self.frame.scene,
+            &self.settings,
+            self.look,
+            self.stem.as_deref(),
+            &self.result,
+        );
+        report(observer, frame, written)
     }
 }
 
@@ -338,7 +370,7 @@ fn overlapped<R: Send>(
     job: &RenderJob,
     pending: Option<&Rendered>,
     render: impl FnOnce() -> R + Send,
-) -> (R, Option<Written>) {
+) -> (R, Option<Result<Written, JobError>>) {
     let Some(p) = pending else {
         return (render(), None);
     };

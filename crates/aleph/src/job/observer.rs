@@ -58,4 +58,7 @@ pub struct FrameDone<'a> {
     /// How the display image (the PNG) is made from the radiance
     /// ([`crate::deliver::display_image`]).
     pub display: Look,
+    /// The denoised image the outputs show, when the job denoises (`--denoise`); the
+    /// result's film is then the raw render.
+    pub denoised: Option<&'a crate::denoise::Denoised>,
 }
