@@ -547,3 +547,25 @@ fn bad_reuse_windows_are_refused_before_any_work() {
         );
     }
 }
+
+/// A frame keeps at most `aleph::reuse::kept_spp` samples per pixel for the frames after it
+/// (its first ones), so that a high-resolution sequence's window fits in memory: at 1440²
+/// (2.1 M pixels, 2 samples kept) an 8-spp budget's 4-spp base pass keeps two a pixel.
+#[test]
+fn a_frame_keeps_its_first_samples_within_the_memory_bound() {
+    use aleph::reuse::kept_spp;
+    assert_eq!(kept_spp(240 * 160), 194);
+    assert_eq!(kept_spp(512 * 512), 28);
+    assert_eq!(kept_spp(1920 * 1080), 2);
+    assert_eq!(kept_spp(7680 * 4320), 2);
+    let dir = tempdir();
+    let path = cornell_sequence(dir.path(), 1440, STILL_CAMERA, "");
+    let scene = Scene::load(&path).unwrap().at_frame(0).unwrap();
+    let s = aleph::adaptive::AdaptiveSettings {
+        budget_spp: Some(8.0),
+        ..aleph::adaptive::AdaptiveSettings::default()
+    };
+    assert_eq!(aleph::reuse::base_spp(s.budget_spp), 4);
+    let kept = aleph::adaptive::render_base(&scene, &s).unwrap();
+    assert_eq!(kept.len(), 2 * 1440 * 1440);
+}

@@ -213,6 +213,23 @@ pub fn base_offset(frame: i64, spp: u32) -> u64 {
     (frame as u64).wrapping_mul(spp.next_multiple_of(2) as u64)
 }
 
+/// The memory a frame's kept samples may take, bytes: 36 a sample ([`Sample`] and its
+/// footprint), so at most [`kept_spp`] samples per pixel (K frames' worth: 3.75 GiB at the
+/// default K = 15). Without a bound a 1920×1080 sequence at 16 spp would keep 18 GB (measured
+/// at 512²: peak 3.7 GB against 0.28 GB without reuse).
+pub const KEPT_BYTES_PER_FRAME: usize = 256 << 20;
+
+/// Samples per pixel a frame of `pixels` pixels keeps for the frames after it, at most: its
+/// first ones (the base pass's, then later passes' in order), so that the kept samples fit
+/// [`KEPT_BYTES_PER_FRAME`]; an even number (as many for each half-buffer) and at least 2, so
+/// beyond 3.7 M pixels the bound is exceeded (3840×2160: 2 samples, 600 MB a frame).
+/// 194 at 240×160, 28 at 512², 2 at 1920×1080.
+pub fn kept_spp(pixels: usize) -> u32 {
+    let per_sample = std::mem::size_of::<Sample>() + std::mem::size_of::<f32>();
+    let n = (KEPT_BYTES_PER_FRAME / (per_sample * pixels.max(1))).min(u32::MAX as usize);
+    (n as u32 & !1).max(2)
+}
+
 /// One frame's base pass with its G-buffer: what later frames reuse. Its samples are kept one
 /// by one ([`Sample`]), so that each lands in the pixel of a later frame that sees its surface
 /// point, not resampled from pixel means.
@@ -270,38 +287,33 @@ impl FrameSamples {
         gbuffer: &GBuffer,
         samples: Vec<Sample>,
     ) -> FrameSamples {
-        let mut start = Vec::with_capacity(film.len() + 1);
-        let mut n = 0u32;
-        start.push(0);
-        for p in &film.pixels {
-            assert_eq!(p.first, 0, "a frame's samples start at sample 0");
-            n += p.count();
-            start.push(n);
-        }
+        let base = film.pixels.first().map_or(0, |p| p.count());
+        assert!(
+            film.pixels
+                .iter()
+                .all(|p| p.first == 0 && p.count() == base),
+            "a base pass takes the same samples in every pixel, from sample 0"
+        );
         assert_eq!(
-            n as usize,
+            base as usize * film.len(),
             samples.len(),
             "one recorded sample per sample taken"
         );
-        let base = film.pixels.first().map_or(0, |p| p.count());
-        assert!(
-            film.pixels.iter().all(|p| p.count() == base),
-            "a base pass takes the same samples in every pixel"
-        );
-        let area = samples.par_iter().map(|s| footprint(scene, s)).collect();
-        FrameSamples {
+        let mut frame = FrameSamples {
             index: scene.frame.index,
             view: View::of(gbuffer),
-            samples,
-            start,
-            base,
-            area,
-        }
+            samples: Vec::new(),
+            start: vec![0; film.len() + 1],
+            base: base.min(kept_spp(film.len())),
+            area: Vec::new(),
+        };
+        frame.add_pass(scene, &vec![base; film.len()], &samples);
+        frame
     }
 
     /// Appends a later pass of `counts[i]` samples in pixel i, as
     /// [`crate::render::render_counts_recorded`] returns them (grouped by pixel): they follow
-    /// each pixel's samples so far.
+    /// each pixel's samples so far, up to [`kept_spp`] in all (the rest are not kept).
     ///
     /// # Panics
     /// If `counts` does not have one entry per pixel or `samples` do not match it.
@@ -311,7 +323,7 @@ impl FrameSamples {
             counts.iter().map(|&c| c as usize).sum::<usize>(),
             samples.len()
         );
-        let new_area: Vec<f32> = samples.par_iter().map(|s| footprint(scene, s)).collect();
+        let cap = kept_spp(counts.len()) as usize;
         let mut merged = Vec::with_capacity(self.samples.len() + samples.len());
         let mut area = Vec::with_capacity(merged.capacity());
         let mut start = Vec::with_capacity(self.start.len());
@@ -319,13 +331,19 @@ impl FrameSamples {
         let mut at = 0usize;
         for (i, &c) in counts.iter().enumerate() {
             let own = self.start[i] as usize..self.start[i + 1] as usize;
+            let new = at..at + (c as usize).min(cap - own.len());
             merged.extend_from_slice(&self.samples[own.clone()]);
             area.extend_from_slice(&self.area[own]);
-            merged.extend_from_slice(&samples[at..at + c as usize]);
-            area.extend_from_slice(&new_area[at..at + c as usize]);
+            area.extend(vec![f32::NAN; new.len()]);
+            merged.extend_from_slice(&samples[new]);
             at += c as usize;
             start.push(merged.len() as u32);
         }
+        // The footprints of the samples kept, computed once each.
+        area.par_iter_mut()
+            .zip(&merged)
+            .filter(|(a, _)| a.is_nan())
+            .for_each(|(a, s)| *a = footprint(scene, s));
         self.samples = merged;
         self.area = area;
         self.start = start;
