@@ -149,11 +149,10 @@ fn frame_out(done: &FrameDone<'_>) -> PyResult<FrameOut> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     // The image the outputs show: denoised when the job denoises, the raw render kept as
     // `Noisy.R/G/B` beside the denoiser's albedo and normal, as in the EXR.
-    let (rgb, (mut channels, mut attributes)) = (
-        done.denoised
-            .map_or_else(|| r.film.mean_rgb(), |d| d.rgb.clone()),
-        aleph::deliver::exr_layers(scene, done.settings, r),
-    );
+    let rgb = done
+        .denoised
+        .map_or_else(|| r.film.mean_rgb(), |d| d.rgb.clone());
+    let (mut channels, mut attributes) = aleph::deliver::exr_layers(scene, done.settings, r);
     if let Some(d) = done.denoised {
         aleph::deliver::denoise_layers(d, &mut channels, &mut attributes);
     }

@@ -324,6 +324,7 @@ impl FrameSamples {
             samples.len()
         );
         let cap = kept_spp(counts.len()) as usize;
+        let new_area: Vec<f32> = samples.par_iter().map(|s| footprint(scene, s)).collect();
         let mut merged = Vec::with_capacity(self.samples.len() + samples.len());
         let mut area = Vec::with_capacity(merged.capacity());
         let mut start = Vec::with_capacity(self.start.len());
@@ -334,16 +335,11 @@ impl FrameSamples {
             let new = at..at + (c as usize).min(cap - own.len());
             merged.extend_from_slice(&self.samples[own.clone()]);
             area.extend_from_slice(&self.area[own]);
-            area.extend(vec![f32::NAN; new.len()]);
-            merged.extend_from_slice(&samples[new]);
+            merged.extend_from_slice(&samples[new.clone()]);
+            area.extend_from_slice(&new_area[new]);
             at += c as usize;
             start.push(merged.len() as u32);
         }
-        // The footprints of the samples kept, computed once each.
-        area.par_iter_mut()
-            .zip(&merged)
-            .filter(|(a, _)| a.is_nan())
-            .for_each(|(a, s)| *a = footprint(scene, s));
         self.samples = merged;
         self.area = area;
         self.start = start;

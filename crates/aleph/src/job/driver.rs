@@ -238,15 +238,27 @@ fn deliver_frame(
     observer: &dyn Observer,
     result: &AdaptiveResult,
 ) -> Result<Vec<u8>, JobError> {
-    let written = write_frame(job, scene, settings, look, stem, result)?;
-    Ok(report(
-        observer,
-        (scene, settings, look, stem, result),
-        written,
-    ))
+    let frame = Frame {
+        scene,
+        settings,
+        look,
+        stem,
+        result,
+    };
+    let written = frame.write(job)?;
+    Ok(frame.report(written, observer))
 }
 
-/// What writing a frame gave ([`write_frame`]): the display image (empty without a stem),
+/// A rendered frame, ready to be written and reported.
+struct Frame<'a> {
+    scene: &'a Scene,
+    settings: &'a AdaptiveSettings,
+    look: Look,
+    stem: Option<&'a Path>,
+    result: &'a AdaptiveResult,
+}
+
+/// What writing a frame gave ([`Frame::write`]): the display image (empty without a stem),
 /// words for the summary, and the image denoised after the loop (when the job denoises and
 /// the loop did not).
 struct Written {
@@ -255,80 +267,75 @@ struct Written {
     late: Option<crate::denoise::Denoised>,
 }
 
-/// Denoises a rendered frame when the job asks and its loop did not (a frame that reused
-/// earlier frames, a budget rendered uniformly), with or without files to write; then
-/// writes its files to `stem` (if any).
-fn write_frame(
-    job: &RenderJob,
-    scene: &Scene,
-    settings: &AdaptiveSettings,
-    look: Look,
-    stem: Option<&Path>,
-    result: &AdaptiveResult,
-) -> Result<Written, JobError> {
-    let t = std::time::Instant::now();
-    let late = match (&result.denoised, job.denoises()) {
-        (None, true) => Some(crate::denoise::denoise_render(
+impl Frame<'_> {
+    /// Denoises the frame when the job asks and its loop did not (a frame that reused earlier
+    /// frames, a budget rendered uniformly), with or without files to write; then writes its
+    /// files to the stem (if any).
+    fn write(&self, job: &RenderJob) -> Result<Written, JobError> {
+        let (scene, result) = (self.scene, self.result);
+        let t = std::time::Instant::now();
+        let late = match (&result.denoised, job.denoises()) {
+            (None, true) => Some(crate::denoise::denoise_render(
+                scene,
+                result.film.mean_rgb(),
+            )?),
+            _ => None,
+        };
+        let denoise_s = (t.elapsed() + result.denoise_time).as_secs_f64();
+        let Some(stem) = self.stem else {
+            let words = self.look.describe();
+            return Ok(Written {
+                display: Vec::new(),
+                words,
+                late,
+            });
+        };
+        let denoised = self.denoised(&late);
+        let w = write_render(
             scene,
-            result.film.mean_rgb(),
-        )?),
-        _ => None,
-    };
-    let denoised = result.denoised.as_ref().or(late.as_ref());
-    let denoise_s = (t.elapsed() + result.denoise_time).as_secs_f64();
-    let Some(stem) = stem else {
-        let words = look.describe();
-        return Ok(Written {
-            display: Vec::new(),
+            stem,
+            self.settings,
+            result,
+            self.look,
+            job.output.aov,
+            denoised,
+        )?;
+        let words = match denoised {
+            Some(_) => format!(
+                "{}; denoised by Open Image Denoise in {denoise_s:.2} s",
+                w.look
+            ),
+            None => w.look,
+        };
+        Ok(Written {
+            display: w.display,
             words,
             late,
-        });
-    };
-    let w = write_render(
-        scene,
-        stem,
-        settings,
-        result,
-        look,
-        job.output.aov,
-        denoised,
-    )?;
-    let words = match denoised {
-        Some(_) => format!(
-            "{}; denoised by Open Image Denoise in {denoise_s:.2} s",
-            w.look
-        ),
-        None => w.look,
-    };
-    Ok(Written {
-        display: w.display,
-        words,
-        late,
-    })
-}
+        })
+    }
 
-/// Reports a written frame to `observer`; returns its display image.
-fn report(
-    observer: &dyn Observer,
-    (scene, settings, look, stem, result): (
-        &Scene,
-        &AdaptiveSettings,
-        Look,
-        Option<&Path>,
-        &AdaptiveResult,
-    ),
-    written: Written,
-) -> Vec<u8> {
-    observer.frame_done(&FrameDone {
-        scene,
-        settings,
-        result,
-        stem,
-        look: &written.words,
-        display: look,
-        denoised: result.denoised.as_ref().or(written.late.as_ref()),
-    });
-    written.display
+    /// The denoised image the outputs show: the loop's, else the one denoised after it.
+    fn denoised<'b>(
+        &'b self,
+        late: &'b Option<crate::denoise::Denoised>,
+    ) -> Option<&'b crate::denoise::Denoised> {
+        self.result.denoised.as_ref().or(late.as_ref())
+    }
+
+    /// Reports the written frame to `observer` (on the driver's thread, as the observer
+    /// expects); returns its display image.
+    fn report(&self, written: Written, observer: &dyn Observer) -> Vec<u8> {
+        observer.frame_done(&FrameDone {
+            scene: self.scene,
+            settings: self.settings,
+            result: self.result,
+            stem: self.stem,
+            look: &written.words,
+            display: self.look,
+            denoised: self.denoised(&written.late),
+        });
+        written.display
+    }
 }
 
 /// A frame of a sequence, rendered, whose files are written while the next frame renders
@@ -342,23 +349,15 @@ struct Rendered {
 }
 
 impl Rendered {
-    /// Writes the frame's files ([`write_frame`]).
-    fn write(&self, job: &RenderJob) -> Result<Written, JobError> {
-        let (scene, stem) = (&self.frame.scene, self.stem.as_deref());
-        write_frame(job, scene, &self.settings, self.look, stem, &self.result)
-    }
-
-    /// Reports the written frame to `observer` (on the driver's thread, as the observer
-    /// expects); returns its display image.
-    fn report(self, written: Written, observer: &dyn Observer) -> Vec<u8> {
-        let frame = (
-            &self.frame.scene,
-            &self.settings,
-            self.look,
-            self.stem.as_deref(),
-            &self.result,
-        );
-        report(observer, frame, written)
+    /// The frame to write and report.
+    fn frame(&self) -> Frame<'_> {
+        Frame {
+            scene: &self.frame.scene,
+            settings: &self.settings,
+            look: self.look,
+            stem: self.stem.as_deref(),
+            result: &self.result,
+        }
     }
 }
 
@@ -375,11 +374,11 @@ fn overlapped<R: Send>(
         return (render(), None);
     };
     if rayon::current_num_threads() < 2 {
-        let written = p.write(job);
+        let written = p.frame().write(job);
         return (render(), Some(written));
     }
     std::thread::scope(|s| {
-        let writer = s.spawn(|| p.write(job));
+        let writer = s.spawn(|| p.frame().write(job));
         let r = render();
         let written = writer
             .join()
@@ -450,7 +449,7 @@ fn render_sequence(
             adaptive(&frame.scene, &settings, reused, observer)
         });
         if let (Some(p), Some(written)) = (pending.take(), written) {
-            finished.push(p.report(written?, observer));
+            finished.push(p.frame().report(written?, observer));
         }
         let (result, base) = rendered?;
         if let Some(base) = base.filter(|_| frame.index < last) {
@@ -468,8 +467,8 @@ fn render_sequence(
         });
     }
     if let Some(p) = pending {
-        let written = p.write(job)?;
-        finished.push(p.report(written, observer));
+        let written = p.frame().write(job)?;
+        finished.push(p.frame().report(written, observer));
     }
     let displays: Vec<(i64, Vec<u8>)> = (first..=last).zip(finished).collect();
     let previews = match stem {
