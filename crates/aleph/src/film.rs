@@ -265,6 +265,10 @@ pub struct HistoryPixel {
     pub n_odd: f64,
     /// Weighted Σ Y² of the reused samples.
     pub sum_lum2: f64,
+    /// Radiance added to each of the pixel's means (both half-buffers and all samples),
+    /// W·sr⁻¹·m⁻²: this pixel's share of the held fireflies dropped on its surface nearby
+    /// ([`crate::reuse`], "Held fireflies"). Not a sample: it adds no weight and no variance.
+    pub spread: DVec3,
 }
 
 impl HistoryPixel {
@@ -327,20 +331,23 @@ impl Film {
         let mean = |s: DVec3, n: f64| if n > 0.0 { s / n } else { DVec3::ZERO };
         let (se, so) = (p.sum_even.value(), p.sum_odd.value());
         let (ne, no) = (p.n_even() as f64, p.n_odd() as f64);
+        // A spread excess may be negative in a channel (a dropped firefly of another colour
+        // than the rest lowered that channel's mean); a mean stays at or above zero.
+        let spread = |m: DVec3| (m + h.spread).max(DVec3::ZERO);
         (
-            mean(se + h.sum_even, ne + h.n_even),
-            mean(so + h.sum_odd, no + h.n_odd),
-            mean(se + so + h.sum_even + h.sum_odd, ne + no + h.weight()),
+            spread(mean(se + h.sum_even, ne + h.n_even)),
+            spread(mean(so + h.sum_odd, no + h.n_odd)),
+            spread(mean(se + so + h.sum_even + h.sum_odd, ne + no + h.weight())),
         )
     }
 
-    /// Pixel `i`'s reused samples, if it has any.
+    /// Pixel `i`'s reused samples, if it has any (or a share of spread light).
     #[inline]
     fn reused(&self, i: usize) -> Option<HistoryPixel> {
         self.history
             .as_ref()
             .map(|h| h[i])
-            .filter(|h| h.weight() > 0.0)
+            .filter(|h| h.weight() > 0.0 || h.spread != DVec3::ZERO)
     }
 
     /// Samples behind pixel `i`'s estimate: its fresh count plus the reused weight.
@@ -366,7 +373,10 @@ impl Film {
         if n < 2.0 {
             return f64::INFINITY;
         }
-        let y = crate::math::luminance(self.means(i).2.as_vec3()) as f64;
+        // The samples' own mean: the spread light is no sample.
+        let (se, so) = (p.sum_even.value(), p.sum_odd.value());
+        let mean = (se + so + h.sum_even + h.sum_odd) / n;
+        let y = crate::math::luminance(mean.as_vec3()) as f64;
         let var = ((p.sum_lum2.value() + h.sum_lum2 - n * y * y) / (n - 1.0)).max(0.0);
         (var / n).sqrt()
     }
