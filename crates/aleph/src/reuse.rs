@@ -1382,19 +1382,31 @@ impl Landing<'_> {
         sees: &dyn Fn(usize) -> bool,
     ) -> f32 {
         let (g, o) = (self.g, &self.f.view);
-        let (Some(&then), false) = (o.direct.get(k), g.direct.is_empty()) else {
+        if o.direct.is_empty() || g.direct.is_empty() {
             return 1.0;
-        };
-        let same = o.px[k].object == object && o.px[k].material == material;
-        // The direct light of the surface the sample lands on, as a centre nearby saw it.
-        let c = std::iter::once(Some(i))
+        }
+        // The direct light of the surface the sample lands on, as a centre nearby sees it.
+        let now = std::iter::once(Some(i))
             .chain(self.neighbours(i))
             .flatten()
             .find(|&c| sees(c));
-        match c {
-            Some(c) if same => direct_light_share(g.direct[c], then),
-            _ => 0.0,
+        let Some(c) = now else { return 0.0 };
+        // Against the same then: its own pixel's centre's, where that saw the sample's
+        // surface. At an edge, where it saw the other surface, every 4-neighbour's that saw
+        // the sample's must agree, and the two pixels' own centres too (taking only the own
+        // centre dropped all samples of the other surface, and darkened the pixels straddling
+        // the moving-sphere box's light by 30-50 %).
+        let same_then = |t: usize| o.px[t].object == object && o.px[t].material == material;
+        if same_then(k) {
+            return direct_light_share(g.direct[c], o.direct[k]);
         }
+        self.neighbours(k)
+            .into_iter()
+            .flatten()
+            .filter(|&t| same_then(t))
+            .map(|t| direct_light_share(g.direct[c], o.direct[t]))
+            .reduce(f32::min)
+            .map_or(0.0, |s| s.min(direct_light_share(g.direct[i], o.direct[k])))
     }
 
     /// The pixel of `g` that contains raster position `r`.
