@@ -358,7 +358,7 @@ fn held_fireflies_keep_their_light_on_the_moving_sphere_box() {
     // path still at a pixel, and spreads its excess over the same surface within 13 pixels:
     // the light moves a little (it blurs), but none is lost. Before the spread, frame 19's
     // ceiling came out 19 % too dark here (z = -11) and the image without the light's pixels
-    // 7 % (z = -8.9); with it, +1.9 % (z = 2.4).
+    // 7 % (z = -8.9); with it, +1.8 % (z = 2.2).
     let scene = repo("scenes/cornell-motion/scene.toml");
     let mut j = job(&scene, 15, 4.0, [19, 19]);
     j.scene.resolution = Some([96, 96]);
