@@ -351,6 +351,18 @@ fn region_mean(
     (m / n, v.sqrt() / n)
 }
 
+/// A 1024-spp uniform render of `scene`'s frame `f` at `size`², with render seed `seed` (the
+/// scene's without one).
+fn reference_at(scene: &Path, size: u32, f: i64, seed: Option<u64>) -> aleph::film::Film {
+    let mut desc = aleph::scene::SceneDescription::read(scene).unwrap();
+    desc.camera.resolution = [size, size];
+    if seed.is_some() {
+        desc.render.seed = seed;
+    }
+    let at = Scene::load_description(desc).unwrap().at_frame(f).unwrap();
+    render(&at, aleph::integrator::Strategy::Mis, 1024)
+}
+
 #[test]
 fn held_fireflies_keep_their_light_on_the_moving_sphere_box() {
     // The bundled moving-sphere box's ceiling is lit by bounce light and by rare caustic paths
@@ -363,10 +375,7 @@ fn held_fireflies_keep_their_light_on_the_moving_sphere_box() {
     let mut j = job(&scene, 15, 4.0, [19, 19]);
     j.scene.resolution = Some([96, 96]);
     let f = run(&j).frame(19);
-    let mut desc = aleph::scene::SceneDescription::read(&scene).unwrap();
-    desc.camera.resolution = [96, 96];
-    let at = Scene::load_description(desc).unwrap().at_frame(19).unwrap();
-    let reference = render(&at, aleph::integrator::Strategy::Mis, 1024);
+    let reference = reference_at(&scene, 96, 19, None);
     // The emitter's pixels (luminance about 10, no spread light) are left out.
     let unlit = |i: usize| luminance(reference.pixels[i].mean().as_vec3()) < 1.0;
     let (m, se) = region_mean(&f.film, 0..96, unlit);
@@ -384,20 +393,13 @@ fn pixels_straddling_a_light_keep_both_surfaces_samples_on_the_moving_sphere_box
     // seeds 42 ± 7 % before, 8 ± 5 % now: the held-firefly rule spreads some of their light
     // over the ceiling).
     let scene = repo("scenes/cornell-motion/scene.toml");
-    let mut desc = aleph::scene::SceneDescription::read(&scene).unwrap();
-    desc.camera.resolution = [64, 64];
     let (mut sum, mut var, mut sum_ref, mut var_ref) = (0.0, 0.0, 0.0, 0.0);
     for seed in [1, 2, 3] {
         let mut j = job(&scene, 7, 4.0, [0, 7]);
         j.scene.resolution = Some([64, 64]);
         j.scene.seed = Some(seed);
         let f = run(&j).frame(7);
-        desc.render.seed = Some(seed + 100);
-        let at = Scene::load_description(desc.clone())
-            .unwrap()
-            .at_frame(7)
-            .unwrap();
-        let reference = render(&at, aleph::integrator::Strategy::Mis, 1024);
+        let reference = reference_at(&scene, 64, 7, Some(seed + 100));
         let y = |i: usize| luminance(reference.pixels[i].mean().as_vec3()) as f64;
         // The light's pixels (luminance about 10) in the top quarter, and the pixels beside
         // them whose centres see the ceiling.

@@ -272,6 +272,23 @@ pub struct HistoryPixel {
 }
 
 impl HistoryPixel {
+    /// The means of half-buffer A, half-buffer B and all samples of a pixel whose fresh
+    /// samples are `p` and reused ones these (zero where a buffer is empty), without the
+    /// spread light.
+    pub fn sample_means(&self, p: &PixelStats) -> (DVec3, DVec3, DVec3) {
+        let mean = |s: DVec3, n: f64| if n > 0.0 { s / n } else { DVec3::ZERO };
+        let (se, so) = (p.sum_even.value(), p.sum_odd.value());
+        let (ne, no) = (p.n_even() as f64, p.n_odd() as f64);
+        (
+            mean(se + self.sum_even, ne + self.n_even),
+            mean(so + self.sum_odd, no + self.n_odd),
+            mean(
+                se + so + self.sum_even + self.sum_odd,
+                ne + no + self.weight(),
+            ),
+        )
+    }
+
     /// Total weight, samples.
     pub fn weight(&self) -> f64 {
         self.n_even + self.n_odd
@@ -328,17 +345,11 @@ impl Film {
         let Some(h) = self.reused(i) else {
             return (p.mean_even(), p.mean_odd(), p.mean());
         };
-        let mean = |s: DVec3, n: f64| if n > 0.0 { s / n } else { DVec3::ZERO };
-        let (se, so) = (p.sum_even.value(), p.sum_odd.value());
-        let (ne, no) = (p.n_even() as f64, p.n_odd() as f64);
         // A spread excess may be negative in a channel (a dropped firefly of another colour
         // than the rest lowered that channel's mean); a mean stays at or above zero.
         let spread = |m: DVec3| (m + h.spread).max(DVec3::ZERO);
-        (
-            spread(mean(se + h.sum_even, ne + h.n_even)),
-            spread(mean(so + h.sum_odd, no + h.n_odd)),
-            spread(mean(se + so + h.sum_even + h.sum_odd, ne + no + h.weight())),
-        )
+        let (a, b, all) = h.sample_means(p);
+        (spread(a), spread(b), spread(all))
     }
 
     /// Pixel `i`'s reused samples, if it has any (or a share of spread light).
@@ -374,9 +385,7 @@ impl Film {
             return f64::INFINITY;
         }
         // The samples' own mean: the spread light is no sample.
-        let (se, so) = (p.sum_even.value(), p.sum_odd.value());
-        let mean = (se + so + h.sum_even + h.sum_odd) / n;
-        let y = crate::math::luminance(mean.as_vec3()) as f64;
+        let y = crate::math::luminance(h.sample_means(p).2.as_vec3()) as f64;
         let var = ((p.sum_lum2.value() + h.sum_lum2 - n * y * y) / (n - 1.0)).max(0.0);
         (var / n).sqrt()
     }

@@ -733,16 +733,13 @@ fn keep(
                 held.clear();
                 held.extend(layer.lum.iter().map(|l| l[i]));
                 let all = weighted_sum(layer, s, i);
-                let kept_frames = |s: &[f64]| s.iter().filter(|&&k| k > 0.0).count();
-                let before = kept_frames(s);
                 let counts = (fresh_y[i].sum, fresh_y[i].n);
-                drop_held_outliers(held, s, counts, floors[i]);
-                if kept_frames(s) == before {
+                if !drop_held_outliers(held, s, counts, floors[i]) {
                     return (all, DVec3::ZERO);
                 }
                 let kept = weighted_sum(layer, s, i);
                 let p = &fresh.pixels[i];
-                (kept, mean_with(p, &all) - mean_with(p, &kept))
+                (kept, all.sample_means(p).2 - kept.sample_means(p).2)
             },
         )
         .unzip();
@@ -762,16 +759,6 @@ fn weighted_sum(layer: &Layer, shares: &[f64], i: usize) -> HistoryPixel {
         }
     }
     h
-}
-
-/// The mean of a pixel's fresh samples `p` and its history `h` (zero without samples).
-fn mean_with(p: &crate::film::PixelStats, h: &HistoryPixel) -> DVec3 {
-    let n = p.count() as f64 + h.weight();
-    if n > 0.0 {
-        (p.sum() + h.sum_even + h.sum_odd) / n
-    } else {
-        DVec3::ZERO
-    }
 }
 
 /// A reused frame whose samples alone raise a pixel's combined mean by more than this many
@@ -828,8 +815,14 @@ fn per_sample((l, w): (f64, f64)) -> f64 {
 /// [`HELD_OUTLIER_RATIO`] calls outliers at one pixel. `frames[j]` is frame j's resampled
 /// luminance sum there and its weight (samples), `shares[j]` the share of it kept so far,
 /// `fresh` the fresh samples' luminance sum and count, `floor` the least mean (luminance per
-/// sample) an excess is measured against.
-fn drop_held_outliers(frames: &[(f64, f64)], shares: &mut [f64], fresh: (f64, f64), floor: f64) {
+/// sample) an excess is measured against. Returns whether any frame was dropped.
+fn drop_held_outliers(
+    frames: &[(f64, f64)],
+    shares: &mut [f64],
+    fresh: (f64, f64),
+    floor: f64,
+) -> bool {
+    let mut dropped = false;
     loop {
         let (mut sum, mut n) = fresh;
         for (&(l, w), &k) in frames.iter().zip(shares.iter()) {
@@ -837,7 +830,7 @@ fn drop_held_outliers(frames: &[(f64, f64)], shares: &mut [f64], fresh: (f64, f6
             n += k * w;
         }
         if n <= 0.0 {
-            return;
+            return dropped;
         }
         // The frame of the highest mean per sample, measured against the rest without it
         // and without the next highest (a second firefly at the pixel would hide the first).
@@ -855,8 +848,11 @@ fn drop_held_outliers(frames: &[(f64, f64)], shares: &mut [f64], fresh: (f64, f6
             (j, excess / rest.max(floor).max(f64::MIN_POSITIVE))
         });
         match worst {
-            Some((j, r)) if r > HELD_OUTLIER_RATIO => shares[j] = 0.0,
-            _ => return,
+            Some((j, r)) if r > HELD_OUTLIER_RATIO => {
+                shares[j] = 0.0;
+                dropped = true;
+            }
+            _ => return dropped,
         }
     }
 }
@@ -1527,7 +1523,13 @@ mod tests {
         }
         let every = [1.0; 7];
         let all = (0..w * h)
-            .map(|i| luminance(mean_with(&film.pixels[i], &weighted_sum(&layer, &every, i))))
+            .map(|i| {
+                luminance(
+                    weighted_sum(&layer, &every, i)
+                        .sample_means(&film.pixels[i])
+                        .2,
+                )
+            })
             .collect();
         let y: Vec<Moments> = film
             .pixels
