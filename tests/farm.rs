@@ -183,11 +183,13 @@ fn farm_scripts_give_the_single_machine_files() {
     // A sequence of the perceptual sampler reusing frames (the default window: frames 2-4 lie
     // in one chunk, one task; a window of 1: chunks of 16 frames, so 14-17 are two tasks, 14-15
     // and 16-17, the second rendering the base pass of frame 14 and frame 15 whole as
-    // warm-up), one of independent frames (a task per frame), and one split by samples
-    // (uniform).
-    let cases: [(&str, &str, Vec<&str>, usize); 4] = [
+    // warm-up), the same window cut to 1 by a reuse memory of 1 MiB (1600 pixels take 0.4 MB
+    // a frame: the window of 15 is cut to the frames 1 MiB holds, and the chunks follow the
+    // cut), one of independent frames (a task per frame), and one split by samples (uniform).
+    let cases: [(&str, &str, Vec<&str>, usize); 5] = [
         ("frames", "2-4", vec![], 1),
         ("chunks", "14-17", vec!["--reuse-window", "1"], 2),
+        ("memory", "14-17", vec!["--reuse-memory", "0.0009765625"], 2),
         ("independent", "2-4", vec!["--reuse-window", "0"], 3),
         ("parts", "2-4", vec!["--sampler", "uniform"], 9),
     ];

@@ -594,8 +594,10 @@ fn bad_reuse_windows_are_refused_before_any_work() {
     let motion = repo("scenes/cornell-motion/scene.toml");
     let still = repo("scenes/cornell-box/scene.toml");
     let (m, st) = (motion.to_str().unwrap(), still.to_str().unwrap());
-    let cases: [(&[&str], &str); 6] = [
+    let cases: [(&[&str], &str); 8] = [
         (&["render", m, "--reuse-window=-1"], "--reuse-window"),
+        (&["render", m, "--reuse-memory", "0"], "--reuse-memory"),
+        (&["render", m, "--reuse-memory", "NaN"], "--reuse-memory"),
         (&["render", m, "--reuse-window", "65"], "at most 64 frames"),
         (
             &["render", m, "--reuse-window", "3", "--sampler", "uniform"],
@@ -636,15 +638,17 @@ fn bad_reuse_windows_are_refused_before_any_work() {
 }
 
 /// A frame keeps at most `aleph::reuse::kept_spp` samples per pixel for the frames after it
-/// (its first ones), so that a high-resolution sequence's window fits in memory: at 1440²
-/// (2.1 M pixels, 2 samples kept) an 8-spp budget's 4-spp base pass keeps two a pixel.
+/// (its first ones), so that a high-resolution sequence's window fits in the reuse memory: at
+/// 1440² (2.1 M pixels, 2 samples kept) an 8-spp budget's 4-spp base pass keeps two a pixel.
 #[test]
 fn a_frame_keeps_its_first_samples_within_the_memory_bound() {
-    use aleph::reuse::kept_spp;
-    assert_eq!(kept_spp(240 * 160), 194);
-    assert_eq!(kept_spp(512 * 512), 28);
-    assert_eq!(kept_spp(1920 * 1080), 2);
-    assert_eq!(kept_spp(7680 * 4320), 2);
+    use aleph::reuse::{DEFAULT_MEMORY, frame_memory, kept_spp};
+    let share = frame_memory(aleph::job::DEFAULT_REUSE_WINDOW, DEFAULT_MEMORY);
+    assert_eq!(share, 512 << 20);
+    assert_eq!(kept_spp(240 * 160, share), 382);
+    assert_eq!(kept_spp(512 * 512, share), 52);
+    assert_eq!(kept_spp(1920 * 1080, share), 2);
+    assert_eq!(kept_spp(7680 * 4320, share), 2);
     let dir = tempdir();
     let path = cornell_sequence(dir.path(), 1440, STILL_CAMERA, "");
     let scene = Scene::load(&path).unwrap().at_frame(0).unwrap();
@@ -655,4 +659,56 @@ fn a_frame_keeps_its_first_samples_within_the_memory_bound() {
     assert_eq!(aleph::reuse::base_spp(s.budget_spp), 4);
     let kept = aleph::adaptive::render_base(&scene, &s).unwrap();
     assert_eq!(kept.len(), 2 * 1440 * 1440);
+}
+
+/// The reuse memory bounds the whole window: the frames' records and at least 2 kept samples a
+/// pixel, for the K window frames and the frame being rendered. At the default 8 GiB a window
+/// of 15 holds 1920×1080 whole and 3840×2160 is cut to 3 frames (2 GB a frame there).
+#[test]
+fn the_reuse_memory_cuts_the_window_to_the_frames_it_holds() {
+    use aleph::reuse::{DEFAULT_MEMORY, RECORD_BYTES, SAMPLE_BYTES, window_for};
+    assert_eq!((RECORD_BYTES, SAMPLE_BYTES), (176, 36));
+    assert_eq!(window_for(1920 * 1080, 15, DEFAULT_MEMORY), 15);
+    assert_eq!(window_for(3840 * 2160, 15, DEFAULT_MEMORY), 3);
+    assert_eq!(window_for(7680 * 4320, 15, DEFAULT_MEMORY), 0);
+    assert_eq!(window_for(64 * 64, 15, 4 << 20), 3);
+    assert_eq!(window_for(64 * 64, 2, 4 << 20), 2);
+    let mut job = RenderJob::new(repo("scenes/cornell-motion/scene.toml"));
+    job.frames = Some([0, 5]);
+    assert_eq!(job.reuse_window_for(3840 * 2160), 3);
+    job.sampling.reuse_memory_gib = 32.0;
+    assert_eq!(job.reuse_window_for(3840 * 2160), 15);
+}
+
+/// A window the reuse memory cannot hold renders as the window it can, byte for byte, and the
+/// sequence's summary says it was cut: 4 MiB hold 3 frames of 64 × 64 pixels.
+#[test]
+fn a_sequence_beyond_its_reuse_memory_renders_the_window_that_fits() {
+    let dir = tempdir();
+    let scene = repo("scenes/cornell-motion/scene.toml");
+    let s = scene.to_str().unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", s, "--resolution", "64x64", "--spp", "4"];
+        args.extend(["--frames", "0-4", "--reuse-memory", "0.00390625"]);
+        args.extend(extra);
+        let o = aleph(dir.path(), &args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let cut = run(&["-o", "cut"]);
+    assert!(
+        cut.contains("reuse window 3 (of 15: what --reuse-memory holds at 64×64)"),
+        "{cut}"
+    );
+    let three = run(&["--reuse-window", "3", "-o", "three"]);
+    assert!(three.contains("reuse window 3)"), "{three}");
+    let channels = |p: &str| aleph::imageio::read_exr_raw(&dir.path().join(p)).unwrap();
+    for f in 0..=4 {
+        let (a, b) = (
+            channels(&format!("cut.{f:04}.exr")),
+            channels(&format!("three.{f:04}.exr")),
+        );
+        assert_eq!(a.f32s, b.f32s, "frame {f}");
+        assert_eq!(a.u32s, b.u32s, "frame {f}");
+    }
 }

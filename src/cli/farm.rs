@@ -133,6 +133,10 @@ struct Manifest {
     /// (`aleph::reuse::chunk_start`): such a render gets one task per chunk.
     #[serde(default)]
     runs_from: Option<i64>,
+    /// Pixels of a frame, which cut a reusing render's window to what its reuse memory holds
+    /// (`RenderJob::reuse_window_for`); 0 (a manifest written before it): the window asked.
+    #[serde(default)]
+    pixels: u64,
     /// The render every task runs a frame or a part of (its frames, split and outputs are the
     /// farm's to set): the render options after `--`, as a render job.
     job: RenderJob,
@@ -159,7 +163,10 @@ impl Manifest {
     /// frames before it, which a chunk renders first as warm-up; longer chunks spend less of
     /// the farm on warm-up).
     fn frame_ranges(&self) -> Vec<Option<[i64; 2]>> {
-        let k = self.job.reuse_window();
+        let k = match self.pixels {
+            0 => self.job.reuse_window(),
+            n => self.job.reuse_window_for(n as usize),
+        };
         match (self.frames, self.runs_from) {
             (Some([a, b]), Some(start)) if k > 0 && self.split <= 1 => {
                 let mut out = Vec::new();
@@ -538,6 +545,8 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
         (None, None) => None,
     };
     let options = render_options(&scene, &a.render)?;
+    let job = options.job()?;
+    let [w, h] = job.scene.resolution.unwrap_or(desc.camera.resolution);
     let m = Manifest {
         aleph,
         stem,
@@ -546,7 +555,8 @@ fn slurm(a: SlurmArgs) -> anyhow::Result<ExitCode> {
         tiles: a.split_tiles > 1,
         tile_margin: options.tile_margin,
         runs_from: desc.animation.as_ref().map(|anim| anim.frames[0]),
-        job: options.job()?,
+        pixels: w as u64 * h as u64,
+        job,
     };
     check_render(&m)?;
     let n_tasks = m.tasks().len();

@@ -183,6 +183,17 @@ pub struct SamplingArgs {
     /// before those and then those K frames whole). 0 renders independent frames. Default: 15 for the perceptual sampler, 0 for the others and with --time.
     #[arg(long, value_name = "K", help_heading = "Adaptive sampling")]
     pub reuse_window: Option<u32>,
+    /// Sequences: memory reuse across frames may take, GiB (the window's frames, their kept
+    /// samples and their landing), from 1 MiB. It decides how many samples a pixel keeps for
+    /// the frames after it, and cuts the window where its frames do not fit (the sequence's
+    /// summary says so): 8 GiB holds 15 frames at 1920×1080, 3 at 3840×2160.
+    #[arg(
+        long,
+        value_name = "GiB",
+        default_value_t = 8.0,
+        help_heading = "Adaptive sampling"
+    )]
+    pub reuse_memory: f64,
 }
 
 impl SamplingArgs {
@@ -209,6 +220,7 @@ impl SamplingArgs {
             ppd: self.ppd,
             use_velocity: !self.no_velocity,
             reuse_window: self.reuse_window,
+            reuse_memory_gib: self.reuse_memory,
         }
     }
 
@@ -569,9 +581,19 @@ fn sequence_line(scene: &Scene, r: &SequenceReport) -> String {
     let n = (last - first + 1) as f64;
     let wall = r.wall.as_secs_f64();
     let (preview, strip) = r.previews.clone().unwrap_or_default();
+    let (k, asked) = r.reuse_window;
+    let reuse = match (k, asked) {
+        (0, 0) => String::new(),
+        (k, asked) if k == asked => format!(", reuse window {k}"),
+        (k, asked) => format!(
+            ", reuse window {k} (of {asked}: what --reuse-memory holds at {}×{})",
+            scene.camera.width, scene.camera.height
+        ),
+    };
     format!(
-        "{}: sequence of {n} frames ({first}-{last} at {} fps), {:.1} spp mean, {wall:.1} s \
-         ({:.2} s/frame; {:.2} s adaptation pre-passes, {:.2} s perception) -> {}, {}",
+        "{}: sequence of {n} frames ({first}-{last} at {} fps{reuse}), {:.1} spp mean, \
+         {wall:.1} s ({:.2} s/frame; {:.2} s adaptation pre-passes, {:.2} s perception) -> {}, \
+         {}",
         scene.path.display(),
         r.fps,
         r.mean_spp,

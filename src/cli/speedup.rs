@@ -123,6 +123,14 @@ pub fn run(args: SpeedupArgs) -> anyhow::Result<ExitCode> {
 
 /// The library's sweep, then the table, CSVs and plots.
 fn run_sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::Result<ExitCode> {
+    // The reuse arm's window, cut to what the reuse memory holds as `aleph render` cuts it.
+    let [w, h] = desc.camera.resolution;
+    let pixels = w as usize * h as usize;
+    let reuse_asked = args
+        .sampling
+        .reuse_window
+        .unwrap_or(aleph::job::DEFAULT_REUSE_WINDOW);
+    let reuse_memory = (args.sampling.reuse_memory * (1u64 << 30) as f64) as u64;
     let spec = SweepSpec {
         budgets: args.budgets.clone(),
         reference_spp: args.reference_spp,
@@ -130,10 +138,7 @@ fn run_sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::
         frames: args.frames,
         operator: args.tonemap.map(Operator::from),
         stop: args.stop,
-        reuse_window: args
-            .sampling
-            .reuse_window
-            .unwrap_or(aleph::job::DEFAULT_REUSE_WINDOW),
+        reuse_window: aleph::reuse::window_for(pixels, reuse_asked, reuse_memory),
         arms: args
             .arms
             .as_ref()
@@ -143,9 +148,10 @@ fn run_sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::
     // scene's (set by the sweep).
     let w = desc.camera.resolution[0] as usize;
     let tone = args.tone.settings(Operator::Exposure, w, 1.0)?;
-    let base = args
+    let mut base = args
         .sampling
         .settings(Criterion::Perceptual, None, 1, tone)?;
+    base.reuse_frame_memory = aleph::reuse::frame_memory(spec.reuse_window, reuse_memory);
     let result = sweep(desc, dir, &spec, &base, &|line| eprintln!("{line}"))?;
     let report = report(&result, args, &scene_name(args));
     print!("{report}");

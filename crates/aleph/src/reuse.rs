@@ -220,21 +220,51 @@ pub fn base_offset(frame: i64, spp: u32) -> u64 {
     (frame as u64).wrapping_mul(spp.next_multiple_of(2) as u64)
 }
 
-/// The memory a frame's kept samples may take, bytes: 36 a sample ([`Sample`] and its
-/// footprint), so at most [`kept_spp`] samples per pixel (K frames' worth: 3.75 GiB at the
-/// default K = 15). Without a bound a 1920×1080 sequence at 16 spp would keep 18 GB (measured
-/// at 512²: peak 3.7 GB against 0.28 GB without reuse).
-pub const KEPT_BYTES_PER_FRAME: usize = 256 << 20;
+/// The memory reuse across frames may take by default, bytes (`--reuse-memory`,
+/// [`crate::job::SamplingOptions::reuse_memory_gib`]): the window's frames, their samples and
+/// their landing in the current frame. At the default window of 15 frames it holds 1920×1080
+/// whole (2 samples kept a pixel) and cuts 3840×2160 to 3 frames ([`window_for`]). Without a
+/// bound a 1920×1080 sequence at 16 spp would keep 18 GB of samples, and 3840×2160 would need
+/// 22 GB for its per-pixel records alone.
+pub const DEFAULT_MEMORY: u64 = 8 << 30;
+
+/// Bytes a kept sample takes: the [`Sample`] and its footprint.
+pub const SAMPLE_BYTES: usize = std::mem::size_of::<Sample>() + std::mem::size_of::<f32>();
+
+/// Bytes a pixel takes in each window frame besides its kept samples: the frame's [`View`]
+/// record (with its direct-light signature) and, while the frame lands in the current one, two
+/// layers of sums ([`Reprojected`]: the base passes and every sample) with their luminance.
+pub const RECORD_BYTES: usize = std::mem::size_of::<Px>()
+    + std::mem::size_of::<f32>()
+    + 2 * (std::mem::size_of::<Part>() + std::mem::size_of::<(f64, f64)>());
+
+/// Samples a pixel keeps at least (one for each half-buffer).
+pub const MIN_KEPT_SPP: u32 = 2;
+
+/// The largest window, at most `k` frames, whose frames fit in `memory` bytes at `pixels`
+/// pixels: the K window frames and the frame being rendered each take [`RECORD_BYTES`] and
+/// [`MIN_KEPT_SPP`] samples a pixel. 0 (independent frames) where not even one frame fits.
+pub fn window_for(pixels: usize, k: u32, memory: u64) -> u32 {
+    let frame = pixels.max(1) as u64 * (RECORD_BYTES + MIN_KEPT_SPP as usize * SAMPLE_BYTES) as u64;
+    let fits = (memory / frame).saturating_sub(1);
+    k.min(fits.min(u32::MAX as u64) as u32)
+}
+
+/// Memory each frame of a window of `k` may take out of `memory` bytes (the window's frames
+/// and the frame being rendered share it evenly), bytes.
+pub fn frame_memory(k: u32, memory: u64) -> u64 {
+    memory / (k as u64 + 1)
+}
 
 /// Samples per pixel a frame of `pixels` pixels keeps for the frames after it, at most: its
-/// first ones (the base pass's, then later passes' in order), so that the kept samples fit
-/// [`KEPT_BYTES_PER_FRAME`]; an even number (as many for each half-buffer) and at least 2, so
-/// beyond 3.7 M pixels the bound is exceeded (3840×2160: 2 samples, 600 MB a frame).
-/// 194 at 240×160, 28 at 512², 2 at 1920×1080.
-pub fn kept_spp(pixels: usize) -> u32 {
-    let per_sample = std::mem::size_of::<Sample>() + std::mem::size_of::<f32>();
-    let n = (KEPT_BYTES_PER_FRAME / (per_sample * pixels.max(1))).min(u32::MAX as usize);
-    (n as u32 & !1).max(2)
+/// first ones (the base pass's, then later passes' in order), as many as fit in `frame_memory`
+/// bytes after the pixels' records ([`RECORD_BYTES`]); an even number (as many for each
+/// half-buffer) and at least [`MIN_KEPT_SPP`]. With the default memory and window
+/// ([`frame_memory`] of 512 MiB): 409 at 240×160, 52 at 512², 2 at 1920×1080.
+pub fn kept_spp(pixels: usize, frame_memory: u64) -> u32 {
+    let per_pixel = (frame_memory / pixels.max(1) as u64).saturating_sub(RECORD_BYTES as u64);
+    let n = (per_pixel / SAMPLE_BYTES as u64).min(u32::MAX as u64);
+    (n as u32 & !1).max(MIN_KEPT_SPP)
 }
 
 /// One frame's base pass with its G-buffer: what later frames reuse. Its samples are kept one
@@ -257,6 +287,8 @@ pub struct FrameSamples {
     /// pixel's solid angle, sr), negative where the side facing the camera was the back of the
     /// winding ([`footprint`]). With the sample, 36 bytes.
     area: Vec<f32>,
+    /// Samples a pixel keeps at most ([`kept_spp`]).
+    cap: u32,
 }
 
 /// What landing needs of a triangle, 20 bytes (a scene's triangles keep 56 and more, and
@@ -284,7 +316,8 @@ fn triangle_table(geo: &crate::geometry::Geometry) -> Vec<Tri> {
 
 impl FrameSamples {
     /// A frame's samples as [`crate::render::render_counts_recorded`] returns them from the
-    /// frame's first pass into `film`.
+    /// frame's first pass into `film`, of which each pixel keeps at most its first `cap`
+    /// ([`kept_spp`]; raised to [`MIN_KEPT_SPP`]).
     ///
     /// # Panics
     /// If `samples` do not match the counts of `film`, or the film did not start at sample 0.
@@ -293,7 +326,9 @@ impl FrameSamples {
         film: &Film,
         gbuffer: &GBuffer,
         samples: Vec<Sample>,
+        cap: u32,
     ) -> FrameSamples {
+        let cap = cap.max(MIN_KEPT_SPP);
         let base = film.pixels.first().map_or(0, |p| p.count());
         assert!(
             film.pixels
@@ -311,8 +346,9 @@ impl FrameSamples {
             view: View::of(gbuffer),
             samples: Vec::new(),
             start: vec![0; film.len() + 1],
-            base: base.min(kept_spp(film.len())),
+            base: base.min(cap),
             area: Vec::new(),
+            cap,
         };
         frame.add_pass(scene, &vec![base; film.len()], &samples);
         frame
@@ -320,7 +356,7 @@ impl FrameSamples {
 
     /// Appends a later pass of `counts[i]` samples in pixel i, as
     /// [`crate::render::render_counts_recorded`] returns them (grouped by pixel): they follow
-    /// each pixel's samples so far, up to [`kept_spp`] in all (the rest are not kept).
+    /// each pixel's samples so far, up to the frame's cap in all (the rest are not kept).
     ///
     /// # Panics
     /// If `counts` does not have one entry per pixel or `samples` do not match it.
@@ -330,7 +366,7 @@ impl FrameSamples {
             counts.iter().map(|&c| c as usize).sum::<usize>(),
             samples.len()
         );
-        let cap = kept_spp(counts.len()) as usize;
+        let cap = self.cap as usize;
         let new_area: Vec<f32> = samples.par_iter().map(|s| footprint(scene, s)).collect();
         let mut merged = Vec::with_capacity(self.samples.len() + samples.len());
         let mut area = Vec::with_capacity(merged.capacity());

@@ -222,6 +222,12 @@ pub struct AdaptiveSettings {
     /// perceptual rule judges the error of the *denoised* image (its two half-buffers denoised
     /// apart, [`criterion`]'s module docs), and the result carries the denoised image.
     pub denoise: bool,
+    /// Memory a frame that reuses earlier frames, or is reused, may take for reuse, bytes:
+    /// its share of the job's reuse memory ([`crate::reuse::frame_memory`]), which decides
+    /// how many samples a pixel keeps for the frames after it ([`crate::reuse::kept_spp`]).
+    /// Default: the share of [`crate::reuse::DEFAULT_MEMORY`] in the default window of
+    /// [`crate::job::DEFAULT_REUSE_WINDOW`] frames, 512 MiB.
+    pub reuse_frame_memory: u64,
 }
 
 /// Settings of the perceptual rule only.
@@ -282,6 +288,10 @@ impl Default for AdaptiveSettings {
             variance_threshold: CYCLES_DEFAULT_THRESHOLD,
             rows: None,
             denoise: false,
+            reuse_frame_memory: crate::reuse::frame_memory(
+                crate::job::DEFAULT_REUSE_WINDOW,
+                crate::reuse::DEFAULT_MEMORY,
+            ),
         }
     }
 }

@@ -93,7 +93,8 @@ fn base_pass(
         offset: crate::reuse::base_offset(scene.frame.index, spp),
     };
     let samples = st.render_recorded(scene, &integrator_of(scene), &pass, sample_progress);
-    let frame = FrameSamples::new(scene, &st.film, &gbuffer, samples);
+    let cap = crate::reuse::kept_spp(st.film.len(), s.reuse_frame_memory);
+    let frame = FrameSamples::new(scene, &st.film, &gbuffer, samples, cap);
     Ok((st, frame, gbuffer))
 }
 

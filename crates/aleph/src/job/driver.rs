@@ -49,6 +49,9 @@ pub struct SequenceReport {
     pub perception: Duration,
     /// The animated preview and filmstrip, when written.
     pub previews: Option<(PathBuf, PathBuf)>,
+    /// The reuse window the frames were rendered with and the one the job asked for
+    /// ([`RenderJob::reuse_window_for`] cuts it to what the reuse memory holds), frames.
+    pub reuse_window: (u32, u32),
 }
 
 /// A rendered sample part.
@@ -418,7 +421,7 @@ fn render_sequence(
     observer: &dyn Observer,
 ) -> Result<SequenceReport, JobError> {
     let start = Instant::now();
-    let k = job.reuse_window();
+    let k = job.reuse_window_for(scene.camera.width as usize * scene.camera.height as usize);
     let anim_first = scene.animation.map_or(first, |a| a.frame_start);
     let warm = crate::reuse::warm_up_start(first, anim_first, k);
     let whole_from = crate::reuse::window_start(first, anim_first, k);
@@ -492,6 +495,7 @@ fn render_sequence(
         prepass: sequence.prepass_time(),
         perception,
         previews,
+        reuse_window: (k, job.reuse_window()),
     })
 }
 

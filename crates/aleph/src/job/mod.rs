@@ -131,6 +131,12 @@ pub struct SamplingOptions {
     /// ([`crate::reuse`]). `None` (default): [`DEFAULT_REUSE_WINDOW`] for a sequence rendered
     /// by the perceptual sampler without a time budget or split, else 0 (independent frames).
     pub reuse_window: Option<u32>,
+    /// Memory reuse across frames may take, GiB (default 8, [`crate::reuse::DEFAULT_MEMORY`]):
+    /// the window's frames, their kept samples and their landing in the current frame. Decides
+    /// how many samples a pixel keeps ([`crate::reuse::kept_spp`]) and cuts the window where
+    /// its frames' records do not fit ([`RenderJob::reuse_window_for`]), so it decides pixels:
+    /// a farm's chunks take the job's value.
+    pub reuse_memory_gib: f64,
 }
 
 /// The reuse window of a perceptual sequence when the job names none, frames. Measured
@@ -138,6 +144,12 @@ pub struct SamplingOptions {
 /// fewer fresh samples than independent frames at equal JOD instead of 2.7–3.0×, the Lost Empire
 /// walkthrough 1.4–2.0× instead of 1.3–1.7×, and the moving-sphere box the same scores.
 pub const DEFAULT_REUSE_WINDOW: u32 = 15;
+
+/// Bytes in a GiB.
+const GIB: f64 = (1u64 << 30) as f64;
+
+/// The smallest reuse memory a job takes, GiB (1 MiB).
+pub const MIN_REUSE_MEMORY_GIB: f64 = 1.0 / 1024.0;
 
 impl Default for SamplingOptions {
     fn default() -> Self {
@@ -157,6 +169,7 @@ impl Default for SamplingOptions {
             ppd: None,
             use_velocity: a.perceptual.use_velocity,
             reuse_window: None,
+            reuse_memory_gib: crate::reuse::DEFAULT_MEMORY as f64 / GIB,
         }
     }
 }
@@ -499,6 +512,13 @@ impl RenderJob {
     }
 
     fn validate_reuse(&self) -> Result<(), JobError> {
+        let m = self.sampling.reuse_memory_gib;
+        if !(m.is_finite() && (MIN_REUSE_MEMORY_GIB..=1e6).contains(&m)) {
+            return Err(JobError::Invalid(format!(
+                "sampling.reuse_memory_gib (--reuse-memory) must be a size in GiB from \
+                 {MIN_REUSE_MEMORY_GIB} (1 MiB) to 1e6, got {m}"
+            )));
+        }
         let Some(k) = self.sampling.reuse_window.filter(|&k| k > 0) else {
             return Ok(());
         };
@@ -545,6 +565,19 @@ impl RenderJob {
             }
             None => 0,
         }
+    }
+
+    /// The reuse memory, bytes.
+    pub fn reuse_memory(&self) -> u64 {
+        (self.sampling.reuse_memory_gib * GIB) as u64
+    }
+
+    /// The reuse window a sequence of `pixels`-pixel frames renders with: [`Self::reuse_window`],
+    /// cut to the frames whose records fit in the reuse memory ([`crate::reuse::window_for`];
+    /// 0 where not even one does). At the default 8 GiB a window of 15 frames fits up to
+    /// 2.2 M pixels (1920×1080 whole), 3840×2160 takes 3.
+    pub fn reuse_window_for(&self, pixels: usize) -> u32 {
+        crate::reuse::window_for(pixels, self.reuse_window(), self.reuse_memory())
     }
 
     fn validate_split(&self, split: Split) -> Result<(), JobError> {
@@ -634,7 +667,10 @@ impl RenderJob {
             scene.settings.luminance_scale,
         )?;
         tone.adaptation_state = adaptation;
-        let settings = self.adaptive_settings(scene.settings.spp, tone)?;
+        let mut settings = self.adaptive_settings(scene.settings.spp, tone)?;
+        let pixels = scene.camera.width as usize * scene.camera.height as usize;
+        settings.reuse_frame_memory =
+            crate::reuse::frame_memory(self.reuse_window_for(pixels), self.reuse_memory());
         let look = match (self.display.operator, self.display.exposure_ev) {
             (None, Some(ev)) => Look::Exposure(Some(ev)),
             _ => Look::Tone(settings.tone),
@@ -687,6 +723,10 @@ impl RenderJob {
             variance_threshold: s.noise_threshold,
             rows: None,
             denoise: self.denoises(),
+            reuse_frame_memory: crate::reuse::frame_memory(
+                self.reuse_window(),
+                self.reuse_memory(),
+            ),
         };
         let settings = if self.output.preview {
             AdaptiveSettings {
