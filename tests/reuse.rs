@@ -390,8 +390,7 @@ fn pixels_straddling_a_light_keep_both_surfaces_samples_on_the_moving_sphere_box
     // must be compared with the direct light of a centre that saw the light. Taking only the
     // sample's own pixel's centre dropped them all: the pixels beside the light came out 52 %
     // too dark at frame 7 over these three seeds (z = -6.2), now 13 % (z = -1.2; over 8 other
-    // seeds 42 ± 7 % before, 8 ± 5 % now: the held-firefly rule spreads some of their light
-    // over the ceiling).
+    // seeds 42 ± 7 % before, 8 ± 5 % now, and over 40 seeds 4 ± 3 %: noise, not bias).
     let scene = repo("scenes/cornell-motion/scene.toml");
     let (mut sum, mut var, mut sum_ref, mut var_ref) = (0.0, 0.0, 0.0, 0.0);
     for seed in [1, 2, 3] {
