@@ -67,8 +67,8 @@ class RenderJob:
             ``converged_fraction``, ``visibility`` (``"display"``/``"scene"``),
             ``noise_threshold``, ``guide_spp``, ``error_estimate``, ``saliency``,
             ``adaptation_window_deg``, ``latitude_ev``, ``ppd``, ``use_velocity``,
-            ``reuse_window``. Omitted fields keep their defaults; the keyword options above
-            override it.
+            ``reuse_window``, ``reuse_memory_gib`` (``--reuse-memory``, default 8). Omitted
+            fields keep their defaults; the keyword options above override it.
         display: the record's ``[display]`` table: ``operator``, ``exposure_ev``,
             ``adaptation``, ``max_cd_m2``, ``ambient_cd_m2``, ``fov_deg``.
 

@@ -142,6 +142,7 @@ def test_unknown_scene_key_names_the_key(cornell):
         ({"sampler": "magic"}, "sampler"),
         ({"spp": 0.5}, "spp"),
         ({"reuse_window": 3}, "sequence"),
+        ({"sampling": {"reuse_memory_gib": 0.0}}, "reuse-memory"),
         ({"operator": "nope"}, "operator"),
         ({"threads": 0}, "threads"),
     ],

@@ -260,7 +260,7 @@ pub fn frame_memory(k: u32, memory: u64) -> u64 {
 /// first ones (the base pass's, then later passes' in order), as many as fit in `frame_memory`
 /// bytes after the pixels' records ([`RECORD_BYTES`]); an even number (as many for each
 /// half-buffer) and at least [`MIN_KEPT_SPP`]. With the default memory and window
-/// ([`frame_memory`] of 512 MiB): 409 at 240×160, 52 at 512², 2 at 1920×1080.
+/// ([`frame_memory`] of 512 MiB): 382 at 240×160, 52 at 512², 2 at 1920×1080.
 pub fn kept_spp(pixels: usize, frame_memory: u64) -> u32 {
     let per_pixel = (frame_memory / pixels.max(1) as u64).saturating_sub(RECORD_BYTES as u64);
     let n = (per_pixel / SAMPLE_BYTES as u64).min(u32::MAX as u64);
