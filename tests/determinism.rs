@@ -38,13 +38,18 @@ fn adding_samples_later_continues_each_pixel_stream() {
         max_depth: scene.settings.max_depth,
         strategy: Strategy::Mis,
     };
-    // The uniform render (one sequence per pixel) equals 12 samples added in one pass.
+    // The uniform render (a pattern of 12 points per pixel) equals 12 samples added in one
+    // pass; each layout continues its pixels' samples across passes.
     let once = render_on(2, &scene, 12);
-    for streams in [SampleStreams::Whole, SampleStreams::Halves] {
+    for streams in [
+        SampleStreams::Fixed(12),
+        SampleStreams::Whole,
+        SampleStreams::Halves,
+    ] {
         let mut single = Film::new(24, 20);
         let n = single.len();
         render_counts(&scene, &integ, &mut single, &vec![12; n], streams, &|_| {});
-        if streams == SampleStreams::Whole {
+        if streams == SampleStreams::Fixed(12) {
             assert!(single == once, "render_counts differs from render_uniform");
         }
         // 4 + 8 samples in two passes, with an uneven split across pixels in between.

@@ -163,7 +163,7 @@ pub fn render_part(
         &integrator,
         &mut film,
         &counts,
-        SampleStreams::Whole,
+        SampleStreams::Fixed(spp),
         progress,
     );
     let part = PartialFilm {

@@ -4,6 +4,7 @@ use crate::film::{Film, PixelStats};
 use crate::integrator::{Integrator, Strategy};
 use crate::reuse::Sample;
 use crate::rng::Rng;
+use crate::sampler::cmj::{CmjSampler, CmjTable};
 use crate::sampler::{SampleStreams, Sampler, SobolSampler};
 use crate::scene::SampleGenerator;
 use crate::scene::Scene;
@@ -50,17 +51,30 @@ fn sample_pixel(
 ) {
     let (seed, streams) = (pass.seed, pass.streams);
     let index = y as u64 * scene.camera.width as u64 + x as u64;
+    let table = match (scene.settings.sample_generator, streams) {
+        (SampleGenerator::Sobol, SampleStreams::Fixed(total)) if count > 0 => {
+            Some(CmjTable::new(seed, index, total))
+        }
+        _ => None,
+    };
     for _ in 0..count {
         let n = pass.offset.wrapping_add(px.n as u64);
         let time = scene.sample_time(seed, index, n);
         let r = match scene.settings.sample_generator {
-            SampleGenerator::Sobol => {
-                let rng = match streams {
-                    SampleStreams::Halves => SobolSampler::for_sample(seed, index, n),
-                    SampleStreams::Whole => SobolSampler::for_sample_whole(seed, index, n),
-                };
-                trace(scene, integrator, seed, (x, y), n, time, rng)
-            }
+            SampleGenerator::Sobol => match (streams, &table) {
+                (SampleStreams::Fixed(_), Some(t)) => {
+                    let rng = CmjSampler::for_sample(t, n);
+                    trace(scene, integrator, seed, (x, y), n, time, rng)
+                }
+                (SampleStreams::Halves, _) => {
+                    let rng = SobolSampler::for_sample(seed, index, n);
+                    trace(scene, integrator, seed, (x, y), n, time, rng)
+                }
+                _ => {
+                    let rng = SobolSampler::for_sample_whole(seed, index, n);
+                    trace(scene, integrator, seed, (x, y), n, time, rng)
+                }
+            },
             SampleGenerator::Independent => {
                 let rng = Rng::for_sample(seed, index, n);
                 trace(scene, integrator, seed, (x, y), n, time, rng)
@@ -273,14 +287,15 @@ pub fn pixel_costs(scene: &Scene, strategy: Strategy, spp: u32) -> Vec<f32> {
 pub const COST_PASSES: u32 = 4;
 
 /// Renders `spp` samples in every pixel into a new film (one pass, progress reported per row;
-/// one sequence per pixel, [`SampleStreams::Whole`], as the uniform sampler of a job).
+/// a pattern of `spp` points per pixel, [`SampleStreams::Fixed`], as the uniform sampler of a
+/// job).
 pub fn render_uniform(
     scene: &Scene,
     strategy: Strategy,
     spp: u32,
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Film, RenderStats) {
-    render_uniform_streams(scene, strategy, spp, SampleStreams::Whole, progress)
+    render_uniform_streams(scene, strategy, spp, SampleStreams::Fixed(spp), progress)
 }
 
 /// As [`render_uniform`], the samples drawn as `streams` says ([`SampleStreams::Halves`] for a

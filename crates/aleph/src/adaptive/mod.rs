@@ -1095,8 +1095,8 @@ fn stop_before_pass(
 }
 
 /// The uniform sampler (and an adaptive one under its `steer_from_spp`): one pass of the whole
-/// budget over the render's rows (bit-identical to a plain render of that spp), one Sobol'
-/// sequence per pixel ([`SampleStreams::Whole`]: nothing steers by its half-buffers).
+/// budget over the render's rows (bit-identical to a plain render of that spp), one pattern of
+/// that many points per pixel ([`SampleStreams::Fixed`]: nothing steers by its half-buffers).
 fn render_uniform_budget(
     scene: &Scene,
     s: &AdaptiveSettings,
@@ -1117,7 +1117,7 @@ fn render_uniform_budget(
         &integrator,
         &mut st.film,
         &counts,
-        SampleStreams::Whole,
+        SampleStreams::Fixed(spp),
         sample_progress,
     );
     let report = PassReport {

@@ -10,6 +10,7 @@
 //! ([`crate::adaptive::Criterion`]), nor next-event estimation's choice of light
 //! ([`crate::light::LightSampler`]).
 
+pub mod cmj;
 pub mod sobol;
 
 use crate::rng::Rng;
@@ -53,6 +54,11 @@ pub enum SampleStreams {
     /// and their difference is a conservative error estimate (it measures the Monte Carlo
     /// error, not the lower error of the net): for renders that do not steer by it.
     Whole,
+    /// Every pixel takes exactly this many samples in all (indices 0..N; a pass may draw a
+    /// part of them), known before it is rendered: a correlated multi-jittered pattern of N
+    /// points per pixel ([`cmj`]) with the default generator, whose half-buffers (even and odd
+    /// samples) are random halves of it, as with `Whole`. Uniform renders of a budget.
+    Fixed(u32),
 }
 
 /// A source of canonical random numbers in [0, 1) for one camera sample.

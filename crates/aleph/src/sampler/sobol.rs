@@ -12,9 +12,12 @@
 //! B of the film) are two separate sequences with independent scrambles, sample n being point
 //! ⌊n/2⌋ of stream n mod 2 ([`SobolSampler::for_sample`]). Each half is an unbiased
 //! randomized-QMC estimate on its own, and their difference estimates the error of their mean
-//! without bias, which the samplers steer and stop by. Uniform renders, which steer by nothing,
-//! draw all of a pixel's samples from one sequence ([`SobolSampler::for_sample_whole`]), so
-//! every power-of-two prefix is one net.
+//! without bias, which the samplers steer and stop by. Passes that steer by nothing draw all of
+//! a pixel's samples from one sequence ([`SobolSampler::for_sample_whole`]), so every
+//! power-of-two prefix is one net: the perceptual sampler with the standard-error estimate, and
+//! uniform sampling under a time budget. A uniform render of a budget, whose pixels' sample
+//! count is known before they are rendered, draws a correlated multi-jittered pattern instead
+//! ([`super::cmj`], [`super::SampleStreams::Fixed`]), which beats these nets on edges.
 //!
 //! Dimensions past [`QMC_DIMENSIONS`] come from a PCG32 stream keyed the same way, as deep
 //! bounces gain little from stratification: on the Cornell box (256², depth 8, Russian
