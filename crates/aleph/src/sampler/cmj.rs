@@ -17,7 +17,7 @@
 //! point sets a size) Owen-scrambled Sobol' ([`super::sobol`]) has 1.14–1.20× the variance of
 //! this pattern at 16–256 points; a path tracer's error is mostly such edges and penumbrae.
 
-use super::Sampler;
+use super::{Padded, Sampler};
 use crate::rng::{Rng, mix64};
 use glam::Vec2;
 use std::cell::OnceCell;
@@ -136,8 +136,8 @@ const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 pub struct CmjSampler<'a> {
     table: &'a CmjTable,
     index: u32,
-    dim: u32,
-    fallback: Option<Rng>,
+    /// The dimension counter, and the PCG32 stream past [`CMJ_DIMENSIONS`].
+    dims: Padded,
 }
 
 impl<'a> CmjSampler<'a> {
@@ -150,58 +150,40 @@ impl<'a> CmjSampler<'a> {
             sample_index < table.total as u64,
             "sample beyond the pixel's N"
         );
+        let (s, p) = table.key;
         CmjSampler {
             table,
             index: sample_index as u32,
-            dim: 0,
-            fallback: None,
+            dims: Padded::new(CMJ_DIMENSIONS, (s, p, sample_index)),
         }
-    }
-
-    #[inline]
-    fn fallback(&mut self) -> &mut Rng {
-        let (s, p) = self.table.key;
-        let i = self.index as u64;
-        self.fallback
-            .get_or_insert_with(|| Rng::for_sample(s, p, i))
     }
 }
 
 impl Sampler for CmjSampler<'_> {
     #[inline]
     fn uniform(&mut self) -> f32 {
-        if self.dim >= CMJ_DIMENSIONS {
-            return self.fallback().uniform();
+        match self.dims.take(1) {
+            Some(d) => self.table.value(d as usize, self.index),
+            None => self.dims.tail().uniform(),
         }
-        self.dim += 1;
-        self.table.value(self.dim as usize - 1, self.index)
     }
 
     #[inline]
     fn uniform2(&mut self) -> Vec2 {
-        if self.dim >= CMJ_DIMENSIONS {
-            return self.fallback().uniform2();
+        match self.dims.take(2) {
+            Some(d) => self.table.point(d as usize, self.index),
+            None => self.dims.tail().uniform2(),
         }
-        self.dim += 2;
-        self.table.point(self.dim as usize - 2, self.index)
     }
 
     #[inline]
     fn skip(&mut self) {
-        if self.dim >= CMJ_DIMENSIONS {
-            self.fallback().uniform();
-        } else {
-            self.dim += 1;
-        }
+        self.dims.skip(1);
     }
 
     #[inline]
     fn skip2(&mut self) {
-        if self.dim >= CMJ_DIMENSIONS {
-            self.fallback().uniform2();
-        } else {
-            self.dim += 2;
-        }
+        self.dims.skip(2);
     }
 }
 

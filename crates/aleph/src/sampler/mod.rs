@@ -110,3 +110,55 @@ impl Sampler for Rng {
         Rng::uniform2(self)
     }
 }
+
+/// The dimensions of one camera sample drawn from a stratified pattern, and the PCG32 stream
+/// of those past the pattern's `limit` (made when first needed, keyed by the render seed, the
+/// pixel and the sample): the counter both [`SobolSampler`] and [`cmj::CmjSampler`] keep.
+#[derive(Clone, Debug)]
+pub(crate) struct Padded {
+    dim: u32,
+    limit: u32,
+    key: (u64, u64, u64),
+    tail: Option<Rng>,
+}
+
+impl Padded {
+    /// Dimension 0 of a sample keyed `key`, its pattern `limit` dimensions deep.
+    #[inline]
+    pub(crate) fn new(limit: u32, key: (u64, u64, u64)) -> Padded {
+        Padded {
+            dim: 0,
+            limit,
+            key,
+            tail: None,
+        }
+    }
+
+    /// The first of the next `k` dimensions, advancing past them, while they are the pattern's.
+    #[inline]
+    pub(crate) fn take(&mut self, k: u32) -> Option<u32> {
+        (self.dim < self.limit).then(|| {
+            self.dim += k;
+            self.dim - k
+        })
+    }
+
+    /// The PCG32 stream past the pattern.
+    #[inline]
+    pub(crate) fn tail(&mut self) -> &mut Rng {
+        let (s, p, i) = self.key;
+        self.tail.get_or_insert_with(|| Rng::for_sample(s, p, i))
+    }
+
+    /// Passes over the next `k` (1 or 2) dimensions: a pattern's cost nothing, the stream's
+    /// are drawn (so the following values are unchanged).
+    #[inline]
+    pub(crate) fn skip(&mut self, k: u32) {
+        if self.take(k).is_none() {
+            match k {
+                1 => drop(self.tail().uniform()),
+                _ => drop(self.tail().uniform2()),
+            }
+        }
+    }
+}

@@ -62,8 +62,8 @@
 //! A single render's per-pixel error is not σ/√n under randomised QMC: the tests that z-test
 //! pixels ask for independent samples, and the default is tested over independent seeds.
 
-use super::Sampler;
-use crate::rng::{Rng, mix64};
+use super::{Padded, Sampler};
+use crate::rng::mix64;
 use glam::Vec2;
 
 /// Dimensions drawn from scrambled Sobol' points (the first bounces of a path); the rest from
@@ -184,11 +184,8 @@ pub struct SobolSampler {
     stream: u64,
     /// Index within the half-buffer's sequence.
     index: u32,
-    /// Next dimension.
-    dim: u32,
-    /// Key of the PCG32 stream of the dimensions past [`QMC_DIMENSIONS`] (made when needed).
-    key: (u64, u64, u64),
-    fallback: Option<Rng>,
+    /// The dimension counter, and the PCG32 stream past [`QMC_DIMENSIONS`].
+    dims: Padded,
 }
 
 impl SobolSampler {
@@ -228,74 +225,46 @@ impl SobolSampler {
         SobolSampler {
             stream,
             index,
-            dim: 0,
-            key: (seed ^ 0x243F_6A88_85A3_08D3, pixel_index, sample_index),
-            fallback: None,
+            dims: Padded::new(
+                QMC_DIMENSIONS,
+                (seed ^ 0x243F_6A88_85A3_08D3, pixel_index, sample_index),
+            ),
         }
     }
 
+    /// The seed of dimension `d`'s scrambles.
     #[inline]
-    fn fallback(&mut self) -> &mut Rng {
-        let (s, p, i) = self.key;
-        self.fallback
-            .get_or_insert_with(|| Rng::for_sample(s, p, i))
-    }
-
-    #[inline]
-    fn point(&mut self) -> Vec2 {
-        let d = self.dim as u64;
-        self.dim += 2;
-        shuffled_scrambled_sobol2d(
-            self.index,
-            self.stream ^ d.wrapping_mul(0xA076_1D64_78BD_642F),
-        )
-    }
-
-    #[inline]
-    fn point1(&mut self) -> f32 {
-        let d = self.dim as u64;
-        self.dim += 1;
-        shuffled_scrambled_sobol1d(
-            self.index,
-            self.stream ^ d.wrapping_mul(0xA076_1D64_78BD_642F),
-        )
+    fn dim_seed(&self, d: u32) -> u64 {
+        self.stream ^ (d as u64).wrapping_mul(0xA076_1D64_78BD_642F)
     }
 }
 
 impl Sampler for SobolSampler {
     #[inline]
     fn uniform(&mut self) -> f32 {
-        if self.dim >= QMC_DIMENSIONS {
-            return self.fallback().uniform();
+        match self.dims.take(1) {
+            Some(d) => shuffled_scrambled_sobol1d(self.index, self.dim_seed(d)),
+            None => self.dims.tail().uniform(),
         }
-        self.point1()
     }
 
     #[inline]
     fn uniform2(&mut self) -> Vec2 {
-        if self.dim >= QMC_DIMENSIONS {
-            return self.fallback().uniform2();
+        match self.dims.take(2) {
+            Some(d) => shuffled_scrambled_sobol2d(self.index, self.dim_seed(d)),
+            None => self.dims.tail().uniform2(),
         }
-        self.point()
     }
 
     /// A Sobol' dimension is a pure function of its number: skipping one costs nothing.
     #[inline]
     fn skip(&mut self) {
-        if self.dim >= QMC_DIMENSIONS {
-            self.fallback().uniform();
-        } else {
-            self.dim += 1;
-        }
+        self.dims.skip(1);
     }
 
     #[inline]
     fn skip2(&mut self) {
-        if self.dim >= QMC_DIMENSIONS {
-            self.fallback().uniform2();
-        } else {
-            self.dim += 2;
-        }
+        self.dims.skip(2);
     }
 }
 
