@@ -162,18 +162,14 @@ impl<'a> CmjSampler<'a> {
 impl Sampler for CmjSampler<'_> {
     #[inline]
     fn uniform(&mut self) -> f32 {
-        match self.dims.take(1) {
-            Some(d) => self.table.value(d as usize, self.index),
-            None => self.dims.tail().uniform(),
-        }
+        let (t, i) = (self.table, self.index);
+        self.dims.uniform(|d| t.value(d as usize, i))
     }
 
     #[inline]
     fn uniform2(&mut self) -> Vec2 {
-        match self.dims.take(2) {
-            Some(d) => self.table.point(d as usize, self.index),
-            None => self.dims.tail().uniform2(),
-        }
+        let (t, i) = (self.table, self.index);
+        self.dims.uniform2(|d| t.point(d as usize, i))
     }
 
     #[inline]

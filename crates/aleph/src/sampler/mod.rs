@@ -150,6 +150,25 @@ impl Padded {
         self.tail.get_or_insert_with(|| Rng::for_sample(s, p, i))
     }
 
+    /// The next dimension: `pattern(d)` for the pattern's dimension d, else the stream's.
+    #[inline]
+    pub(crate) fn uniform(&mut self, pattern: impl FnOnce(u32) -> f32) -> f32 {
+        match self.take(1) {
+            Some(d) => pattern(d),
+            None => self.tail().uniform(),
+        }
+    }
+
+    /// The next two dimensions: `pattern(d)` for the pattern's pair from dimension d, else the
+    /// stream's.
+    #[inline]
+    pub(crate) fn uniform2(&mut self, pattern: impl FnOnce(u32) -> Vec2) -> Vec2 {
+        match self.take(2) {
+            Some(d) => pattern(d),
+            None => self.tail().uniform2(),
+        }
+    }
+
     /// Passes over the next `k` (1 or 2) dimensions: a pattern's cost nothing, the stream's
     /// are drawn (so the following values are unchanged).
     #[inline]

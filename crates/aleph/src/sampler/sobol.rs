@@ -231,29 +231,27 @@ impl SobolSampler {
             ),
         }
     }
+}
 
-    /// The seed of dimension `d`'s scrambles.
-    #[inline]
-    fn dim_seed(&self, d: u32) -> u64 {
-        self.stream ^ (d as u64).wrapping_mul(0xA076_1D64_78BD_642F)
-    }
+/// The seed of dimension `d`'s scrambles in pixel stream `stream`.
+#[inline]
+fn dim_seed(stream: u64, d: u32) -> u64 {
+    stream ^ (d as u64).wrapping_mul(0xA076_1D64_78BD_642F)
 }
 
 impl Sampler for SobolSampler {
     #[inline]
     fn uniform(&mut self) -> f32 {
-        match self.dims.take(1) {
-            Some(d) => shuffled_scrambled_sobol1d(self.index, self.dim_seed(d)),
-            None => self.dims.tail().uniform(),
-        }
+        let (i, s) = (self.index, self.stream);
+        self.dims
+            .uniform(|d| shuffled_scrambled_sobol1d(i, dim_seed(s, d)))
     }
 
     #[inline]
     fn uniform2(&mut self) -> Vec2 {
-        match self.dims.take(2) {
-            Some(d) => shuffled_scrambled_sobol2d(self.index, self.dim_seed(d)),
-            None => self.dims.tail().uniform2(),
-        }
+        let (i, s) = (self.index, self.stream);
+        self.dims
+            .uniform2(|d| shuffled_scrambled_sobol2d(i, dim_seed(s, d)))
     }
 
     /// A Sobol' dimension is a pure function of its number: skipping one costs nothing.
