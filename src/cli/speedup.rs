@@ -130,7 +130,7 @@ fn run_sweep(desc: SceneDescription, dir: &Path, args: &SpeedupArgs) -> anyhow::
         .sampling
         .reuse_window
         .unwrap_or(aleph::job::DEFAULT_REUSE_WINDOW);
-    let reuse_memory = (args.sampling.reuse_memory * (1u64 << 30) as f64) as u64;
+    let reuse_memory = args.sampling.options().reuse_memory();
     let spec = SweepSpec {
         budgets: args.budgets.clone(),
         reference_spp: args.reference_spp,

@@ -151,6 +151,13 @@ const GIB: f64 = (1u64 << 30) as f64;
 /// The smallest reuse memory a job takes, GiB (1 MiB).
 pub const MIN_REUSE_MEMORY_GIB: f64 = 1.0 / 1024.0;
 
+impl SamplingOptions {
+    /// [`Self::reuse_memory_gib`] in bytes.
+    pub fn reuse_memory(&self) -> u64 {
+        (self.reuse_memory_gib * GIB) as u64
+    }
+}
+
 impl Default for SamplingOptions {
     fn default() -> Self {
         let a = AdaptiveSettings::default();
@@ -569,7 +576,7 @@ impl RenderJob {
 
     /// The reuse memory, bytes.
     pub fn reuse_memory(&self) -> u64 {
-        (self.sampling.reuse_memory_gib * GIB) as u64
+        self.sampling.reuse_memory()
     }
 
     /// The reuse window a sequence of `pixels`-pixel frames renders with: [`Self::reuse_window`],

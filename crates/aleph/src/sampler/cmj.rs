@@ -17,7 +17,7 @@
 //! point sets a size) Owen-scrambled Sobol' ([`super::sobol`]) has 1.14–1.20× the variance of
 //! this pattern at 16–256 points; a path tracer's error is mostly such edges and penumbrae.
 
-use super::{Padded, Sampler};
+use super::{Padded, PaddedPattern};
 use crate::rng::{Rng, mix64};
 use glam::Vec2;
 use std::cell::OnceCell;
@@ -33,6 +33,8 @@ pub const CMJ_DIMENSIONS: u32 = super::sobol::QMC_DIMENSIONS;
 struct Dimension {
     order: OnceCell<Vec<u32>>,
     strata: OnceCell<(Vec<u32>, Vec<u32>)>,
+    /// Key of the samples' jitters in this dimension.
+    jitter: u64,
 }
 
 /// A pixel's correlated multi-jittered patterns, one per dimension below [`CMJ_DIMENSIONS`].
@@ -69,7 +71,14 @@ impl CmjTable {
             r: total.div_ceil(m),
             seed,
             pixel: pixel_index,
-            dims: vec![Dimension::default(); CMJ_DIMENSIONS as usize],
+            dims: (0..CMJ_DIMENSIONS as u64)
+                .map(|d| Dimension {
+                    jitter: mix64(
+                        seed ^ mix64(pixel_index ^ d.wrapping_mul(0xA076_1D64_78BD_642F)),
+                    ),
+                    ..Dimension::default()
+                })
+                .collect(),
             key: (seed ^ 0x243F_6A88_85A3_08D3, pixel_index),
         }
     }
@@ -100,9 +109,7 @@ impl CmjTable {
     /// Two 24-bit jitters in [0, 1) of sample `s` in dimension `d`.
     #[inline]
     fn jitter(&self, d: usize, s: u32) -> (f32, f32) {
-        let key =
-            mix64(self.seed ^ mix64(self.pixel ^ (d as u64).wrapping_mul(0xA076_1D64_78BD_642F)));
-        let j = mix64(key ^ s as u64);
+        let j = mix64(self.dims[d].jitter ^ s as u64);
         let k = 1.0 / (1u32 << 24) as f32;
         ((j >> 40) as f32 * k, (j & 0xff_ffff) as f32 * k)
     }
@@ -159,33 +166,27 @@ impl<'a> CmjSampler<'a> {
     }
 }
 
-impl Sampler for CmjSampler<'_> {
+impl PaddedPattern for CmjSampler<'_> {
     #[inline]
-    fn uniform(&mut self) -> f32 {
-        let (t, i) = (self.table, self.index);
-        self.dims.uniform(|d| t.value(d as usize, i))
+    fn dims(&mut self) -> &mut Padded {
+        &mut self.dims
     }
 
     #[inline]
-    fn uniform2(&mut self) -> Vec2 {
-        let (t, i) = (self.table, self.index);
-        self.dims.uniform2(|d| t.point(d as usize, i))
+    fn value(&self, d: u32) -> f32 {
+        self.table.value(d as usize, self.index)
     }
 
     #[inline]
-    fn skip(&mut self) {
-        self.dims.skip(1);
-    }
-
-    #[inline]
-    fn skip2(&mut self) {
-        self.dims.skip(2);
+    fn point(&self, d: u32) -> Vec2 {
+        self.table.point(d as usize, self.index)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampler::Sampler;
 
     /// The points of every dimension pair: one in each cell of the m × r grid, and one in
     /// each of the m r strata of each axis (the multi-jittered property); a single dimension:

@@ -150,25 +150,6 @@ impl Padded {
         self.tail.get_or_insert_with(|| Rng::for_sample(s, p, i))
     }
 
-    /// The next dimension: `pattern(d)` for the pattern's dimension d, else the stream's.
-    #[inline]
-    pub(crate) fn uniform(&mut self, pattern: impl FnOnce(u32) -> f32) -> f32 {
-        match self.take(1) {
-            Some(d) => pattern(d),
-            None => self.tail().uniform(),
-        }
-    }
-
-    /// The next two dimensions: `pattern(d)` for the pattern's pair from dimension d, else the
-    /// stream's.
-    #[inline]
-    pub(crate) fn uniform2(&mut self, pattern: impl FnOnce(u32) -> Vec2) -> Vec2 {
-        match self.take(2) {
-            Some(d) => pattern(d),
-            None => self.tail().uniform2(),
-        }
-    }
-
     /// Passes over the next `k` (1 or 2) dimensions: a pattern's cost nothing, the stream's
     /// are drawn (so the following values are unchanged).
     #[inline]
@@ -179,5 +160,46 @@ impl Padded {
                 _ => drop(self.tail().uniform2()),
             }
         }
+    }
+}
+
+/// A sampler whose first dimensions come from a stratified pattern and the rest from PCG32
+/// ([`Padded`]): [`SobolSampler`] and [`cmj::CmjSampler`]. Its [`Sampler`] draws the
+/// pattern's dimension d with `value(d)` or, from there on two at a time, `point(d)`; a
+/// skipped pattern dimension costs nothing.
+pub(crate) trait PaddedPattern {
+    /// The dimension counter and tail stream.
+    fn dims(&mut self) -> &mut Padded;
+    /// The pattern's value in dimension `d`.
+    fn value(&self, d: u32) -> f32;
+    /// The pattern's point in dimensions `d`, `d + 1`.
+    fn point(&self, d: u32) -> Vec2;
+}
+
+impl<T: PaddedPattern> Sampler for T {
+    #[inline]
+    fn uniform(&mut self) -> f32 {
+        match self.dims().take(1) {
+            Some(d) => self.value(d),
+            None => self.dims().tail().uniform(),
+        }
+    }
+
+    #[inline]
+    fn uniform2(&mut self) -> Vec2 {
+        match self.dims().take(2) {
+            Some(d) => self.point(d),
+            None => self.dims().tail().uniform2(),
+        }
+    }
+
+    #[inline]
+    fn skip(&mut self) {
+        self.dims().skip(1);
+    }
+
+    #[inline]
+    fn skip2(&mut self) {
+        self.dims().skip(2);
     }
 }

@@ -62,7 +62,7 @@
 //! A single render's per-pixel error is not σ/√n under randomised QMC: the tests that z-test
 //! pixels ask for independent samples, and the default is tested over independent seeds.
 
-use super::{Padded, Sampler};
+use super::{Padded, PaddedPattern};
 use crate::rng::mix64;
 use glam::Vec2;
 
@@ -239,36 +239,27 @@ fn dim_seed(stream: u64, d: u32) -> u64 {
     stream ^ (d as u64).wrapping_mul(0xA076_1D64_78BD_642F)
 }
 
-impl Sampler for SobolSampler {
+impl PaddedPattern for SobolSampler {
     #[inline]
-    fn uniform(&mut self) -> f32 {
-        let (i, s) = (self.index, self.stream);
-        self.dims
-            .uniform(|d| shuffled_scrambled_sobol1d(i, dim_seed(s, d)))
+    fn dims(&mut self) -> &mut Padded {
+        &mut self.dims
     }
 
     #[inline]
-    fn uniform2(&mut self) -> Vec2 {
-        let (i, s) = (self.index, self.stream);
-        self.dims
-            .uniform2(|d| shuffled_scrambled_sobol2d(i, dim_seed(s, d)))
-    }
-
-    /// A Sobol' dimension is a pure function of its number: skipping one costs nothing.
-    #[inline]
-    fn skip(&mut self) {
-        self.dims.skip(1);
+    fn value(&self, d: u32) -> f32 {
+        shuffled_scrambled_sobol1d(self.index, dim_seed(self.stream, d))
     }
 
     #[inline]
-    fn skip2(&mut self) {
-        self.dims.skip(2);
+    fn point(&self, d: u32) -> Vec2 {
+        shuffled_scrambled_sobol2d(self.index, dim_seed(self.stream, d))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampler::Sampler;
 
     #[test]
     fn sobol_dimensions_are_0_2_sequences() {
@@ -360,6 +351,7 @@ mod tests {
 #[cfg(test)]
 mod independence_tests {
     use super::*;
+    use crate::sampler::Sampler;
 
     #[test]
     fn dimension_pairs_of_one_sample_are_independent() {
@@ -390,6 +382,7 @@ mod independence_tests {
 #[cfg(test)]
 mod table_tests {
     use super::*;
+    use crate::sampler::Sampler;
 
     #[test]
     fn byte_tables_equal_the_bitwise_definition() {
@@ -405,6 +398,7 @@ mod table_tests {
 #[cfg(test)]
 mod whole_tests {
     use super::*;
+    use crate::sampler::Sampler;
     use std::f64::consts::PI;
 
     /// sin(πx)·sin(πy): smooth, mean 4/π², variance 1/4 − 16/π⁴.
