@@ -161,3 +161,112 @@ fn render_applies_the_tone_operator_to_the_png_only() {
     let png = image::open(d.path().join("cb.png")).unwrap().to_rgb8();
     assert_eq!(png.dimensions(), (32, 32));
 }
+
+/// The render's EXR carries its luminance scale (OpenEXR's `whiteLuminance`), so `aleph
+/// tonemap` with the render's operator gives the render's PNG byte for byte; and
+/// `--curve-from REF --grade EV` maps by REF's curve with the input scaled by 2^EV. The exposure
+/// operator is linear below white, so both are checked against ratios of the inputs: under
+/// one frozen curve, display(a) / display(r) = a / r per pixel and channel, and a grade of −2
+/// stops is exactly a quarter of the ungraded display.
+#[test]
+fn tonemap_reproduces_the_render_and_grades_under_a_frozen_curve() {
+    let d = tempdir();
+    let scene = repo("scenes/cornell-box/scene.toml");
+    let render = |stem: &str, seed: &str| {
+        let s = d.path().join(stem);
+        let o = aleph(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--resolution",
+            "24x24",
+            "--sampler",
+            "uniform",
+            "--spp",
+            "8",
+            "--seed",
+            seed,
+            "-o",
+            s.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        d.path().join(format!("{stem}.exr"))
+    };
+    let (a, r) = (render("a", "1"), render("r", "2"));
+    let p = |name: &str| d.path().join(name);
+    let tm = |args: &[&str]| {
+        let o = aleph(&[&["tonemap"], args].concat());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let (a_s, r_s) = (a.to_str().unwrap(), r.to_str().unwrap());
+    let out = tm(&[a_s, p("t.png").to_str().unwrap(), "--operator", "reinhard"]);
+    assert!(out.contains("683 cd/m² per unit"), "{out}");
+    let bytes = |f: &str| image::open(p(f)).unwrap().to_rgb8().into_raw();
+    assert_eq!(
+        bytes("t.png"),
+        bytes("a.png"),
+        "tonemap differs from the render's PNG"
+    );
+
+    let exposure = |input: &str, out: &str, extra: &[&str]| {
+        tm(&[
+            &[input, p(out).to_str().unwrap(), "--operator", "exposure"],
+            extra,
+        ]
+        .concat());
+        read_display_exr(&p(out))
+    };
+    let dr = exposure(r_s, "dr.exr", &[]);
+    let da = exposure(a_s, "da.exr", &["--curve-from", r_s]);
+    let dg = exposure(a_s, "dg.exr", &["--curve-from", r_s, "--grade", "-2"]);
+    let (ra, rr) = (read_display_exr(&a), read_display_exr(&r));
+    let mut compared = 0;
+    for i in 0..ra.len() {
+        if dr[i] > 1e-3 && dr[i] < 0.9 && da[i] < 0.9 && ra[i] > 0.0 {
+            let want = rr[i] as f64 / ra[i] as f64;
+            let got = dr[i] as f64 / da[i] as f64;
+            assert!(
+                (got / want - 1.0).abs() < 1e-4,
+                "pixel {i}: {got} against {want}"
+            );
+            assert!(
+                (dg[i] as f64 / da[i] as f64 - 0.25).abs() < 1e-5,
+                "pixel {i}: graded"
+            );
+            compared += 1;
+        }
+    }
+    assert!(
+        compared > ra.len() / 2,
+        "only {compared} values below white"
+    );
+}
+
+#[test]
+fn bad_curves_and_grades_are_refused() {
+    let d = tempdir();
+    let out = d.path().join("out.png");
+    let desk = repo("tests/data/Desk.exr");
+    let venice = repo("tests/data/venice_sunset_1k.hdr");
+    let (desk, o) = (desk.to_str().unwrap(), out.to_str().unwrap());
+    for (args, words) in [
+        (vec!["--grade", "NaN"], vec!["--grade NaN", "-20 to 20"]),
+        (vec!["--grade", "21"], vec!["--grade 21"]),
+        (
+            vec!["--curve-from", venice.to_str().unwrap()],
+            vec!["venice_sunset_1k.hdr", "--curve-from image is", "Desk.exr"],
+        ),
+        (
+            vec!["--curve-from", "nope.exr"],
+            vec!["nope.exr", "not found"],
+        ),
+    ] {
+        let r = aleph(&[&["tonemap", desk, o], &args[..]].concat());
+        assert_eq!(r.status.code(), Some(2), "{args:?}");
+        let e = String::from_utf8_lossy(&r.stderr);
+        for w in words {
+            assert!(e.contains(w), "{args:?}: {e}");
+        }
+        assert!(!out.exists());
+    }
+}

@@ -1,7 +1,7 @@
 //! `aleph tonemap IN OUT`: tone reproduction of an HDR image.
 
-use aleph::display::{ToneMapSettings, contact_sheet, tone_map};
-use aleph::imageio::read_image;
+use aleph::display::{FrozenToneMap, ToneMapSettings, contact_sheet, tone_map};
+use aleph::imageio::{RgbImage, read_image};
 use aleph::job::DisplaySpec;
 use aleph::output::{AtomicOutputs, encode_srgb8, write_exr, write_png};
 use anyhow::{Context, bail};
@@ -123,13 +123,75 @@ pub struct TonemapArgs {
     /// Write every operator side by side, labelled, to this PNG.
     #[arg(long, value_name = "OUT.png")]
     contact_sheet: Option<PathBuf>,
+    /// Freeze the curve's image-dependent parts (adaptation map, exposure scale, Reinhard's log
+    /// average and white) from this HDR image of the same size instead of the input, so that
+    /// several renders are displayed by one curve (a judge's reference, say). Read at its own
+    /// luminance scale (its whiteLuminance, else 100).
+    #[arg(long, value_name = "REF.exr")]
+    curve_from: Option<PathBuf>,
+    /// Grade the input by this many stops under the frozen curve (input × 2^EV before it, the
+    /// curve staying where its image put it): how a user who grades the EXR darker or brighter
+    /// sees it. -20 to 20; 0 by default.
+    #[arg(long, value_name = "EV", allow_negative_numbers = true)]
+    grade: Option<f64>,
     #[command(flatten)]
     tone: ToneArgs,
+}
+
+/// The largest grade `--grade` takes, stops either way.
+const MAX_GRADE_EV: f64 = 20.0;
+
+/// The curve `settings` gives, frozen from `--curve-from` (or the input `img` itself) and
+/// graded by `--grade` stops.
+fn frozen_curve(
+    args: &TonemapArgs,
+    img: &RgbImage,
+    settings: &ToneMapSettings,
+) -> anyhow::Result<FrozenToneMap> {
+    let frozen = match &args.curve_from {
+        None => FrozenToneMap::new(&img.rgb, img.width, img.height, settings)
+            .with_context(|| format!("{}: freezing the tone curve", args.input.display()))?,
+        Some(path) => {
+            let r = read_image(path).context("--curve-from")?;
+            if (r.width, r.height) != (img.width, img.height) {
+                bail!(
+                    "{}: --curve-from image is {}×{}, the input {} is {}×{}",
+                    path.display(),
+                    r.width,
+                    r.height,
+                    args.input.display(),
+                    img.width,
+                    img.height
+                );
+            }
+            if r.is_black() {
+                return Err(aleph::imageio::ImageError::AllBlack { path: path.clone() }.into());
+            }
+            let s = ToneMapSettings {
+                luminance_scale: r.luminance_scale(path, None)?,
+                ..*settings
+            };
+            FrozenToneMap::new(&r.rgb, r.width, r.height, &s)
+                .with_context(|| format!("{}: freezing the tone curve", path.display()))?
+                .with_luminance_scale(settings.luminance_scale)
+        }
+    };
+    Ok(frozen.graded(args.grade.unwrap_or(0.0)))
 }
 
 pub fn run(args: TonemapArgs) -> anyhow::Result<ExitCode> {
     if args.output.is_none() && args.contact_sheet.is_none() {
         bail!("nothing to write: give OUT (.png or .exr) or --contact-sheet OUT.png");
+    }
+    if let Some(ev) = args.grade
+        && (ev.is_nan() || ev.abs() > MAX_GRADE_EV)
+    {
+        bail!("--grade {ev}: give a grade from -{MAX_GRADE_EV} to {MAX_GRADE_EV} stops");
+    }
+    if (args.curve_from.is_some() || args.grade.is_some()) && args.contact_sheet.is_some() {
+        bail!(
+            "--curve-from and --grade apply to OUT, not to --contact-sheet: give one or the other"
+        );
     }
     for out in args.output.iter().chain(&args.contact_sheet) {
         aleph::output::check_output_location(out)?;
@@ -159,7 +221,11 @@ pub fn run(args: TonemapArgs) -> anyhow::Result<ExitCode> {
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase)
             .unwrap_or_default();
-        let display = tone_map(&img.rgb, img.width, img.height, &settings).with_context(within)?;
+        let display = match (&args.curve_from, args.grade) {
+            (None, None) => tone_map(&img.rgb, img.width, img.height, &settings),
+            _ => frozen_curve(&args, &img, &settings)?.map(&img.rgb),
+        }
+        .with_context(within)?;
         match ext.as_str() {
             "png" => {
                 let bytes = encode_srgb8(&display);

@@ -238,7 +238,13 @@ fn reference_for(
     ));
     let mean = film.mean_rgb();
     let mut out = AtomicOutputs::new();
-    let attrs = vec![("referenceSpp".to_string(), spp.to_string())];
+    let attrs = vec![
+        ("referenceSpp".to_string(), spp.to_string()),
+        (
+            aleph::output::WHITE_LUMINANCE.to_string(),
+            ref_scene.settings.luminance_scale.to_string(),
+        ),
+    ];
     out.stage(path, |wr| {
         write_exr(wr, path, w as u32, h as u32, &mean, &planes(&film), &attrs)
     })?;

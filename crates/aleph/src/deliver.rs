@@ -129,6 +129,10 @@ pub fn exr_layers(
             "W.sr^-1.m^-2 (linear Rec.709 RGB)".to_string(),
         ),
         ("sppUnits".to_string(), "samples per pixel".to_string()),
+        (
+            crate::output::WHITE_LUMINANCE.to_string(),
+            scene.settings.luminance_scale.to_string(),
+        ),
         ("scene".to_string(), scene.path.display().to_string()),
         ("sampler".to_string(), settings.criterion.name().to_string()),
     ];

@@ -143,6 +143,13 @@ impl FrozenToneMap {
         g
     }
 
+    /// The same frozen curve for images in other units: `k` cd/m² per unit of the linear
+    /// input (the curve was frozen from an image at its own scale; this one is mapped at `k`).
+    pub fn with_luminance_scale(mut self, k: f32) -> FrozenToneMap {
+        self.settings.luminance_scale = k;
+        self
+    }
+
     /// Display luminance in cd/m² of the display's white (value 1): the operator's L_dmax
     /// (TR/FPSG 125, WRP 100, PTYG its white 125; exposure and Reinhard 100, an sRGB display).
     pub fn display_max_cd_m2(&self) -> f64 {

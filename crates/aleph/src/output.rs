@@ -242,6 +242,10 @@ pub fn check_output_location(dest: &Path) -> std::result::Result<(), OutputError
     Ok(())
 }
 
+/// OpenEXR's standard attribute for the luminance, cd/m², of RGB (1, 1, 1): aleph writes its
+/// `luminance_scale` there.
+pub const WHITE_LUMINANCE: &str = "whiteLuminance";
+
 /// Samples of one extra EXR channel.
 #[derive(Clone, Debug)]
 pub enum ChannelData {
@@ -254,7 +258,9 @@ pub enum ChannelData {
 /// Encodes a single-part OpenEXR image with channels R, G, B (32-bit float, linear, row-major
 /// interleaved input `rgb` of 3 × width × height values), the `extra` channels (names such as
 /// `spp` or `Threshold.Y`), and string attributes (e.g. units) in the header. ZIP compression
-/// (lossless).
+/// (lossless). An attribute named [`WHITE_LUMINANCE`] whose value parses as a number is written
+/// as OpenEXR's standard `whiteLuminance` (a float: cd/m² of RGB (1, 1, 1)), which other tools
+/// and `aleph tonemap` read as the image's luminance scale.
 ///
 /// # Panics
 /// If a buffer's length does not match the image size.
@@ -291,6 +297,12 @@ pub fn write_exr(
     let mut attrs = LayerAttributes::default();
     let mut other = HashMap::new();
     for (k, v) in attributes {
+        if k == WHITE_LUMINANCE
+            && let Ok(white) = v.parse::<f32>()
+        {
+            attrs.white_luminance = Some(white);
+            continue;
+        }
         other.insert(
             Text::from(k.as_str()),
             AttributeValue::Text(Text::from(v.as_str())),
