@@ -15,8 +15,11 @@ Each PNG (the image as displayed, aleph's default tone curve) is scored against 
 reference of `--reference-spp` samples per pixel by FLIP (flip-evaluator, LDR, 67 ppd; mean and
 99th percentile of the error map) and ColorVideoVDP (`standard_4k`, JOD, 10 = no visible
 difference). For each score the samples and the wall time uniform sampling needs to reach it
-(log-log interpolation along the uniform curve) give the speedups. Writes DIR/denoise.csv and
-DIR/denoise.md.
+(log-log interpolation along the uniform curve) give the speedups. Each `--grades` EV other
+than 0 judges every arm's EXR and the reference graded that many stops under the reference's
+frozen curve (`aleph tonemap --operator reinhard --curve-from reference.exr --grade EV`, as a
+user who grades the EXR darker or brighter sees it; `aleph speedup` grades the same way).
+Writes DIR/denoise.csv and DIR/denoise.md (a table per grade).
 
 Install (CPU PyTorch comes with cvvdp; about 3 GB):
     python3 -m venv benches/.venv && benches/.venv/bin/pip install cvvdp flip-evaluator
@@ -90,7 +93,10 @@ def main():
     ap.add_argument("--out", required=True, help="output directory (renders are kept and reused)")
     ap.add_argument("--aleph", default="target/release/aleph")
     ap.add_argument("--reference-spp", type=int, default=4096)
+    ap.add_argument("--grades", default="0,-2,2",
+                    help="EV grades to judge at (0: as displayed; others under the reference's frozen curve)")
     args = ap.parse_args()
+    args.grades = [float(g) for g in args.grades.split(",")]
     os.makedirs(args.out, exist_ok=True)
 
     runs = []  # (arm, budget, stem, args)
@@ -126,32 +132,64 @@ def main():
     import torch
 
     metric = pycvvdp.cvvdp(display_name="standard_4k", quiet=True, device=torch.device("cpu"))
-    ref = load(os.path.join(args.out, "reference.png"))
     rows = []
-    for arm, budget, stem, _ in runs[1:]:
-        test = load(os.path.join(args.out, stem + ".png"))
-        fmap, fmean, _ = flip.evaluate(ref.astype(np.float32) / 255, test.astype(np.float32) / 255,
-                                       "LDR", applyMagma=False, parameters={"ppd": 67.0})
-        p99 = float(np.percentile(fmap, 99))
-        jod = float(metric.predict(test, ref, dim_order="HWC")[0])
-        spp, wall = measured[stem]
-        rows.append(dict(arm=arm, budget=budget, spp=spp, wall=wall, flip=float(fmean), p99=p99, jod=jod))
-        print(f"{stem:>22}: {spp:7.1f} spp {wall:6.2f} s  FLIP {fmean:.4f}  p99 {p99:.4f}  JOD {jod:.3f}", flush=True)
+    for grade in args.grades:
+        ref = load(display(args, "reference", grade))
+        for arm, budget, stem, _ in runs[1:]:
+            test = load(display(args, stem, grade))
+            fmap, fmean, _ = flip.evaluate(ref.astype(np.float32) / 255, test.astype(np.float32) / 255,
+                                           "LDR", applyMagma=False, parameters={"ppd": 67.0})
+            p99 = float(np.percentile(fmap, 99))
+            jod = float(metric.predict(test, ref, dim_order="HWC")[0])
+            spp, wall = measured[stem]
+            rows.append(dict(grade=grade, arm=arm, budget=budget, spp=spp, wall=wall, flip=float(fmean),
+                             p99=p99, jod=jod))
+            print(f"{grade:+.0f} EV {stem:>22}: {spp:7.1f} spp {wall:6.2f} s  FLIP {fmean:.4f}  p99 {p99:.4f}  "
+                  f"JOD {jod:.3f}", flush=True)
 
     with open(os.path.join(args.out, "denoise.csv"), "w") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
 
-    uni = [r for r in rows if r["arm"] == "uniform"]
-    den = [r for r in rows if r["arm"] == "uniform+oidn"]
-    floor = next(r for r in rows if r["arm"] == "floor")
     lines = [
         f"# Denoising judged by FLIP and ColorVideoVDP: {args.scene} at {args.resolution}",
         "",
         f"Reference: uniform {args.reference_spp} spp. Each arm in a process of its own, wall time from start to exit.",
         "Speedup: the uniform samples (time) that reach the same score, over the arm's; the last",
         "two columns against uniform+oidn (the same denoiser) instead of uniform.",
+    ]
+    for grade in args.grades:
+        lines += table([r for r in rows if r["grade"] == grade], grade)
+    with open(os.path.join(args.out, "denoise.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+def display(args, stem, grade):
+    """The display PNG of render `stem` at `grade` stops: the render's own PNG at 0, else its EXR
+    graded under the reference's frozen curve by `aleph tonemap` (made once, then reused)."""
+    if grade == 0:
+        return os.path.join(args.out, stem + ".png")
+    out = os.path.join(args.out, f"{stem}.ev{grade:+.0f}.png")
+    if not os.path.exists(out):
+        cmd = [args.aleph, "tonemap", os.path.join(args.out, stem + ".exr"), out, "--operator", "reinhard",
+               "--curve-from", os.path.join(args.out, "reference.exr"), "--grade", str(grade)]
+        done = subprocess.run(cmd, capture_output=True, text=True)
+        if done.returncode != 0:
+            sys.exit(f"{' '.join(cmd)}: exit {done.returncode}\n{done.stderr}")
+    return out
+
+
+def table(rows, grade):
+    """The markdown table of one grade's `rows`."""
+    uni = [r for r in rows if r["arm"] == "uniform"]
+    den = [r for r in rows if r["arm"] == "uniform+oidn"]
+    floor = next(r for r in rows if r["arm"] == "floor")
+    lines = [
+        "",
+        "As displayed:" if grade == 0 else f"Graded {grade:+.0f} EV under the reference's curve:",
+        "",
         f"Floor (a second reference, seed 2): FLIP mean {floor['flip']:.4f}, p99 {floor['p99']:.4f}, "
         f"JOD {floor['jod']:.3f}.",
         "",
@@ -176,9 +214,7 @@ def main():
             f"{ratio('jod', False, 'spp')} | {ratio('flip', True, 'wall')} | {ratio('jod', False, 'wall')} | "
             f"{vs_oidn[0]} | {vs_oidn[1]} |"
         )
-    with open(os.path.join(args.out, "denoise.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    return lines
 
 
 if __name__ == "__main__":
