@@ -10,9 +10,9 @@
 //! (every power of two: 512 = 16 × 32); otherwise (a prime N, say) m = ⌊√N⌋, r = ⌈N / m⌉, and
 //! the m r − N cells no sample visits are a random set: the grid's columns and rows are
 //! shuffled per pixel and dimension pair, so every point is uniform on the square and the
-//! estimate unbiased. (Without that shuffle the empty
-//! cells were always the last row's: at 512 spp as 22 × 24 a strip of 3 % of the square was
-//! never sampled, and uniform renders at 32, 128 and 512 spp were biased.)
+//! estimate unbiased. (The first version had neither: its grid was ⌊√N⌋ × ⌈N / ⌊√N⌋⌉ and its
+//! empty cells always the last row's, so at 512 spp, as 22 × 24, a strip of 3 % of the square
+//! was never sampled, and uniform renders at 32, 128 and 512 spp were biased.)
 //!
 //! Kensler draws the permutations with a hash per sample; here they are drawn once per pixel
 //! and dimension (Fisher–Yates shuffles from PCG32, [`CmjTable::new`]) and read per sample,
@@ -286,8 +286,9 @@ mod tests {
     /// Every point is uniform on the square for any N, including the N whose grid has empty
     /// cells: over 4 096 pixels the fraction of points in each corner region [a, 1) × [b, 1)
     /// is its area within 4 standard errors (independent points' standard error, which
-    /// stratification only lowers). Fails on a grid whose empty cells are always its last
-    /// row's: at N = 32 as 5 × 7, no point fell in [0.4, 1) × [6/7, 1).
+    /// stratification only lowers). Fails on the first version's grid (⌊√N⌋ columns, the
+    /// last row's cells empty, no shuffle): at N = 7, as 2 × 4, 1.5 % of the points fell in
+    /// [0.4, 1) × [0.86, 1), whose area is 8.4 %.
     #[test]
     fn every_point_is_uniform_for_any_n() {
         for total in [3u32, 7, 32, 37, 94, 128] {
