@@ -89,7 +89,8 @@ class RenderResult:
         stats: per frame: ``mean_spp``, ``samples``, ``passes``, ``converged_fraction``,
             ``wall_s``, ``render_s``, ``decision_s``, ``stop`` (why the sampler stopped), and
             ``reused_spp``/``reused_fraction`` for frames that reused earlier ones.
-        attributes: the EXR header's text attributes (units, scene, sampler) of the last frame.
+        attributes: the EXR header's attributes as text (units, scene, sampler, whiteLuminance:
+            cd/m² per unit of ``rgb``) of the last frame.
         report: the job's report (``kind``: still or sequence; a sequence's fps, times).
         job: the job that was rendered.
     """

@@ -56,6 +56,8 @@ def test_still_equals_cli_exr(tmp_path, cli, cornell, sampler, spp):
         assert r.spp.min() < r.spp.max()  # it steered
     # Mean spp is the budget: spp × pixels in all.
     assert int(r.spp.sum()) == spp * 48 * 40 == r.stats[0]["samples"]
+    # The EXR's luminance scale (the scene's default: 683 cd/m² per unit of radiance).
+    assert float(r.attributes["whiteLuminance"]) == 683.0
 
 
 def test_written_files_equal_cli_files(tmp_path, cli, cornell):
