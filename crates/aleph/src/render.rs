@@ -61,16 +61,16 @@ fn sample_pixel(
         let n = pass.offset.wrapping_add(px.n as u64);
         let time = scene.sample_time(seed, index, n);
         let r = match scene.settings.sample_generator {
-            SampleGenerator::Sobol => match (streams, &table) {
-                (SampleStreams::Fixed(_), Some(t)) => {
+            SampleGenerator::Sobol => match (&table, streams) {
+                (Some(t), _) => {
                     let rng = CmjSampler::for_sample(t, n);
                     trace(scene, integrator, seed, (x, y), n, time, rng)
                 }
-                (SampleStreams::Halves, _) => {
+                (None, SampleStreams::Halves) => {
                     let rng = SobolSampler::for_sample(seed, index, n);
                     trace(scene, integrator, seed, (x, y), n, time, rng)
                 }
-                _ => {
+                (None, _) => {
                     let rng = SobolSampler::for_sample_whole(seed, index, n);
                     trace(scene, integrator, seed, (x, y), n, time, rng)
                 }
