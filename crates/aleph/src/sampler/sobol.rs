@@ -382,7 +382,6 @@ mod independence_tests {
 #[cfg(test)]
 mod table_tests {
     use super::*;
-    use crate::sampler::Sampler;
 
     #[test]
     fn byte_tables_equal_the_bitwise_definition() {
