@@ -486,6 +486,14 @@ fn row_tiles_assemble_into_the_frame() {
         tiles = (1..=3)
             .map(|i| part_path(&stem, i, 3, true).display().to_string())
             .collect();
+        // The perceptual sampler's half-buffers are blocks of one sequence, and say so.
+        let split = read_partial(Path::new(&tiles[0])).unwrap().film.split;
+        let want = if run == "steered" {
+            aleph::film::HalfSplit::Blocks
+        } else {
+            aleph::film::HalfSplit::Interleaved
+        };
+        assert_eq!(split, want, "{run}");
         let merged = d.join(format!("merged-{run}"));
         let mut args = vec!["merge", "-o", merged.to_str().unwrap()];
         args.extend(tiles.iter().map(String::as_str));

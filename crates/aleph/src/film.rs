@@ -1,8 +1,9 @@
 //! The film: per-pixel sample buffers that the perception module and the adaptive sampler read.
 //!
 //! For every pixel the film keeps
-//! - the RGB sums of the samples with even index (half-buffer A) and odd index (half-buffer B),
-//!   whose total is the pixel's RGB sum and whose difference estimates its error;
+//! - the RGB sums of its two half-buffers A and B, whose total is the pixel's RGB sum and whose
+//!   difference estimates its error; which samples go to which half is the film's
+//!   [`HalfSplit`] (even and odd indices, or the power-of-two blocks of one sequence);
 //! - the sum of squared luminance Σ Y², for the sample variance;
 //! - the sample count n (samples 0..n have been taken; the next has index n).
 //!
@@ -113,12 +114,59 @@ impl ExactRgb {
     }
 }
 
+/// Which of a pixel's samples its two half-buffers hold.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HalfSplit {
+    /// Half-buffer A holds the samples of even index, B those of odd index (equal halves, one
+    /// sample apart at odd counts). For independent half-buffer streams
+    /// ([`crate::sampler::SampleStreams::Halves`]) and for patterns whose halves are random
+    /// halves ([`crate::sampler::SampleStreams::Whole`], [`crate::sampler::SampleStreams::Fixed`]).
+    #[default]
+    Interleaved,
+    /// The power-of-two blocks of one scrambled sequence
+    /// ([`crate::sampler::SampleStreams::Blocks`]): with n samples taken (n ≥ 2), A holds
+    /// samples 0..P and B samples P..n, P the largest power of two below n; one sample: A.
+    /// At n = 2^k both halves are (0, k − 1, 2)-nets and at n = 3 · 2^(k − 2) they hold
+    /// 2^(k − 1) and 2^(k − 2) points, each a net. Samples are added in index order; at a
+    /// power of two B joins A before the next sample ([`PixelStats::add_block`]).
+    Blocks,
+}
+
+impl HalfSplit {
+    /// Samples in half-buffers A and B of a pixel holding samples `first..n` (`first` is 0
+    /// for a [`HalfSplit::Blocks`] film).
+    #[inline]
+    pub fn counts(self, first: u32, n: u32) -> (u32, u32) {
+        match self {
+            HalfSplit::Interleaved => (n.div_ceil(2) - first.div_ceil(2), n / 2 - first / 2),
+            HalfSplit::Blocks if n <= 1 => (n, 0),
+            HalfSplit::Blocks => {
+                let p = 1 << (31 - (n - 1).leading_zeros());
+                (p, n - p)
+            }
+        }
+    }
+
+    /// The factor k with E[(k (Y_A − Y_B))²] = Var(Y_mean) for independent halves of `n_a` and
+    /// `n_b` samples: √(n_a n_b) / (n_a + n_b), ½ for equal halves. [`HalfSplit::Interleaved`]
+    /// returns ½ whatever the counts (they differ by at most one sample).
+    #[inline]
+    pub fn difference_scale(self, n_a: f64, n_b: f64) -> f64 {
+        match self {
+            HalfSplit::Interleaved => 0.5,
+            HalfSplit::Blocks if n_a + n_b > 0.0 => (n_a * n_b).sqrt() / (n_a + n_b),
+            HalfSplit::Blocks => 0.0,
+        }
+    }
+}
+
 /// Sample statistics of one pixel.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PixelStats {
-    /// RGB sum of samples with even index (half-buffer A).
+    /// RGB sum of half-buffer A: the samples with even index under [`HalfSplit::Interleaved`]
+    /// (hence the name), the first power-of-two block under [`HalfSplit::Blocks`].
     pub sum_even: ExactRgb,
-    /// RGB sum of samples with odd index (half-buffer B).
+    /// RGB sum of half-buffer B: the samples with odd index, or the block after A's.
     pub sum_odd: ExactRgb,
     /// Σ Y² over all samples (Y = Rec.709 luminance of the sample). Not exact when the squares
     /// span more than the pair holds (see [`ExactSum`]): a merged film's Σ Y² may then differ
@@ -140,6 +188,26 @@ impl PixelStats {
         if self.n.is_multiple_of(2) {
             self.sum_even.add(v);
         } else {
+            self.sum_odd.add(v);
+        }
+        let y = crate::math::luminance(rgb) as f64;
+        self.sum_lum2.add(y * y);
+        self.n += 1;
+    }
+
+    /// Adds the sample with index `self.n` to a [`HalfSplit::Blocks`] film's pixel: at a
+    /// power-of-two count half-buffer B first joins A, then the sample goes to B (sample 0 to
+    /// A). The pixel's sum, count and Σ Y² are those [`PixelStats::add`] gives.
+    #[inline]
+    pub fn add_block(&mut self, rgb: Vec3) {
+        let v = rgb.as_dvec3();
+        if self.n == 0 {
+            self.sum_even.add(v);
+        } else {
+            if self.n.is_power_of_two() {
+                let b = std::mem::take(&mut self.sum_odd);
+                self.sum_even.merge(&b);
+            }
             self.sum_odd.add(v);
         }
         let y = crate::math::luminance(rgb) as f64;
@@ -309,6 +377,9 @@ pub struct Film {
     /// of the film ([`Film::mean_rgb`] and the half-buffers) combines with the fresh ones;
     /// `None` for a film of fresh samples only.
     pub history: Option<Vec<HistoryPixel>>,
+    /// Which samples each pixel's half-buffers hold (set by the first render into the film,
+    /// [`crate::render::render_counts`]). A film with history is [`HalfSplit::Interleaved`].
+    pub split: HalfSplit,
 }
 
 impl Film {
@@ -319,6 +390,7 @@ impl Film {
             height,
             pixels: vec![PixelStats::default(); width as usize * height as usize],
             history: None,
+            split: HalfSplit::Interleaved,
         }
     }
 
@@ -343,8 +415,22 @@ impl Film {
     pub fn means(&self, i: usize) -> (DVec3, DVec3, DVec3) {
         let p = &self.pixels[i];
         let Some(h) = self.reused(i) else {
-            return (p.mean_even(), p.mean_odd(), p.mean());
+            return match self.split {
+                HalfSplit::Interleaved => (p.mean_even(), p.mean_odd(), p.mean()),
+                HalfSplit::Blocks => {
+                    let (na, nb) = self.split.counts(p.first, p.n);
+                    let mean = |s: &ExactRgb, n: u32| {
+                        if n == 0 {
+                            DVec3::ZERO
+                        } else {
+                            s.value() / n as f64
+                        }
+                    };
+                    (mean(&p.sum_even, na), mean(&p.sum_odd, nb), p.mean())
+                }
+            };
         };
+        debug_assert_eq!(self.split, HalfSplit::Interleaved, "a film with history");
         // A spread excess may be negative in a channel (a dropped firefly of another colour
         // than the rest lowered that channel's mean); a mean stays at or above zero.
         let spread = |m: DVec3| (m + h.spread).max(DVec3::ZERO);
@@ -359,6 +445,20 @@ impl Film {
             .as_ref()
             .map(|h| h[i])
             .filter(|h| h.weight() > 0.0 || h.spread != DVec3::ZERO)
+    }
+
+    /// The factor that turns pixel `i`'s half-buffer difference into an estimate of its
+    /// mean's error ([`HalfSplit::difference_scale`]): ½ for interleaved halves.
+    #[inline]
+    pub fn difference_scale(&self, i: usize) -> f64 {
+        match self.split {
+            HalfSplit::Interleaved => 0.5,
+            HalfSplit::Blocks => {
+                let p = &self.pixels[i];
+                let (na, nb) = self.split.counts(p.first, p.n);
+                self.split.difference_scale(na as f64, nb as f64)
+            }
+        }
     }
 
     /// Samples behind pixel `i`'s estimate: its fresh count plus the reused weight.
@@ -435,6 +535,7 @@ impl Film {
             height,
             pixels: vec![px; width as usize * height as usize],
             history: None,
+            split: HalfSplit::Interleaved,
         }
     }
 
@@ -447,6 +548,13 @@ impl Film {
     /// A message naming the first pixel whose ranges do not meet, or the sizes; `self` is then
     /// unchanged.
     pub fn merge(&mut self, other: &Film) -> Result<(), String> {
+        if self.split != HalfSplit::Interleaved || other.split != HalfSplit::Interleaved {
+            return Err(
+                "a film whose half-buffers are blocks of one sequence holds no sample \
+                        range another film can continue"
+                    .into(),
+            );
+        }
         if (self.width, self.height) != (other.width, other.height) {
             return Err(format!(
                 "sizes differ: {}×{} and {}×{}",
@@ -485,6 +593,42 @@ mod tests {
         assert!((p.mean_odd().x - 4.5).abs() < 1e-12);
         // Grey has luminance equal to its value: sample variance of {1,3,2,6,4} is 3.7.
         assert!((p.lum_variance() - 3.7).abs() < 1e-5);
+    }
+
+    #[test]
+    fn block_halves_are_the_power_of_two_blocks() {
+        // Sample i has value i: at n = 12, A holds 0..8 (mean 3.5) and B 8..12 (mean 9.5).
+        let mut film = Film::new(1, 1);
+        film.split = HalfSplit::Blocks;
+        let mut seen = Vec::new();
+        for i in 0..12u32 {
+            film.pixels[0].add_block(Vec3::splat(i as f32));
+            seen.push(HalfSplit::Blocks.counts(0, i + 1));
+        }
+        assert_eq!(
+            seen,
+            [
+                (1, 0),
+                (1, 1),
+                (2, 1),
+                (2, 2),
+                (4, 1),
+                (4, 2),
+                (4, 3),
+                (4, 4),
+                (8, 1),
+                (8, 2),
+                (8, 3),
+                (8, 4)
+            ]
+        );
+        let (a, b, all) = film.means(0);
+        assert_eq!((a.x, b.x, all.x), (3.5, 9.5, 5.5));
+        assert!((film.difference_scale(0) - 32f64.sqrt() / 12.0).abs() < 1e-15);
+        assert_eq!(HalfSplit::Blocks.difference_scale(4.0, 4.0), 0.5);
+        // A block film holds no sample range another film can continue.
+        let other = Film::new(1, 1);
+        assert!(film.merge(&other).is_err());
     }
 
     /// f32 samples over 2⁻³⁰ … 2³⁰ with heavy tails, as path tracing gives.

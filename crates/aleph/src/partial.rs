@@ -29,9 +29,12 @@
 //!   I of K, from 1), `alephRecipe` (an opaque text that parts of one render share; the
 //!   render-job layer stores the job's TOML record there, [`crate::job`]), `radianceUnits`, and either `alephSamples` =
 //!   `FIRST..END` (the sample indices every pixel holds) or `alephRows` = `START..END/HEIGHT`
-//!   (the image rows the tile holds, of the frame's HEIGHT; the file is END − START rows high).
+//!   (the image rows the tile holds, of the frame's HEIGHT; the file is END − START rows high);
+//!   a row tile whose half-buffers are power-of-two blocks of one sequence
+//!   ([`crate::film::HalfSplit::Blocks`], the perceptual sampler's) adds `alephHalves` =
+//!   `blocks` (the `Even`/`Odd` sums then hold half-buffers A and B).
 
-use crate::film::{ExactRgb, ExactSum, Film, PixelStats};
+use crate::film::{ExactRgb, ExactSum, Film, HalfSplit, PixelStats};
 use crate::integrator::{Integrator, Strategy};
 use crate::output::{AtomicOutputs, ChannelData, OutputError, write_exr};
 use crate::render::{RenderStats, render_counts};
@@ -200,6 +203,7 @@ pub fn tile_of(
             height: end - start,
             pixels: film.pixels[span.clone()].to_vec(),
             history: None,
+            split: film.split,
         },
         split: Split::Rows {
             start,
@@ -277,6 +281,10 @@ fn sum_channels(f: &Film) -> Vec<(String, ChannelData)> {
     extra
 }
 
+/// Header attribute of a row tile whose half-buffers are power-of-two blocks
+/// ([`HalfSplit::Blocks`]): `blocks`. Absent: even and odd samples.
+const HALVES_ATTRIBUTE: &str = "alephHalves";
+
 /// Writes `part` to `path` (staged and renamed into place).
 ///
 /// # Errors
@@ -308,6 +316,9 @@ pub fn write_partial(path: &Path, part: &PartialFilm) -> Result<(), PartialError
         Split::Rows { start, end, height } => {
             attributes.push(("alephRows".into(), format!("{start}..{end}/{height}")));
         }
+    }
+    if f.split == HalfSplit::Blocks {
+        attributes.push((HALVES_ATTRIBUTE.into(), "blocks".into()));
     }
     if let Some((t, e)) = &part.threshold_error {
         extra.push(("Threshold.Y".into(), ChannelData::F32(t.clone())));
@@ -441,6 +452,15 @@ fn decode(raw: &crate::imageio::RawExr) -> Result<PartialFilm, String> {
         Split::Rows { .. } => 0,
     };
     let mut film = Film::starting_at(raw.width, raw.height, first);
+    film.split = match raw.text.get(HALVES_ATTRIBUTE).map(String::as_str) {
+        None => HalfSplit::Interleaved,
+        Some("blocks") if matches!(info.split, Split::Rows { .. }) => HalfSplit::Blocks,
+        Some(other) => {
+            return Err(format!(
+                "{HALVES_ATTRIBUTE} is {other:?}, not \"blocks\" of a row tile"
+            ));
+        }
+    };
     for (p, &n) in film.pixels.iter_mut().zip(spp) {
         p.n = first + n;
     }
@@ -552,6 +572,7 @@ pub fn merge_parts_with(
                 let at = start as usize * w as usize;
                 let span = at..at + part.film.len();
                 film.pixels[span.clone()].copy_from_slice(&part.film.pixels);
+                film.split = part.film.split;
                 match (&mut te, &part.threshold_error) {
                     (Some((t, e)), Some((pt, pe))) => {
                         t[span.clone()].copy_from_slice(pt);

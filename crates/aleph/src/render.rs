@@ -1,6 +1,6 @@
 //! The render driver: runs the integrator over the film in parallel, deterministically.
 
-use crate::film::{Film, PixelStats};
+use crate::film::{Film, HalfSplit, PixelStats};
 use crate::integrator::{Integrator, Strategy};
 use crate::reuse::Sample;
 use crate::rng::Rng;
@@ -87,7 +87,11 @@ fn sample_pixel(
             tally.1 += 1;
             glam::Vec3::ZERO
         };
-        px.add(v);
+        if streams == SampleStreams::Blocks {
+            px.add_block(v);
+        } else {
+            px.add(v);
+        }
         if let Some(rec) = record.as_deref_mut() {
             rec.push(Sample::new(scene, r.first, time, v));
         }
@@ -111,15 +115,16 @@ fn trace(
 }
 
 /// Adds `counts[i]` samples to pixel i of `film` (row-major), drawn as `streams` says, in
-/// parallel over rows. The result
+/// parallel over rows; the film's half-buffers take the layout of `streams`
+/// ([`SampleStreams::split`]). The result
 /// is bit-identical for any thread count. `progress` is called (from worker threads) with 0
 /// when a row starts and with the number of samples the row took when it ends; a caller that
 /// must stop the render may unwind from it (`std::panic::resume_unwind`, as the Python
 /// bindings do on Ctrl-C): rows not yet started then start no work.
 ///
 /// # Panics
-/// If `counts.len()` differs from the film's pixel count or the film's size differs from the
-/// camera's.
+/// If `counts.len()` differs from the film's pixel count, the film's size differs from the
+/// camera's, or the film holds samples of another half-buffer layout.
 pub fn render_counts(
     scene: &Scene,
     integrator: &Integrator,
@@ -204,6 +209,17 @@ fn render_rows(
         (film.width, film.height),
         (scene.camera.width, scene.camera.height)
     );
+    let split = pass.streams.split();
+    if film.split != split {
+        assert!(
+            film.pixels.iter().all(|p| p.count() == 0),
+            "a film's half-buffers keep one layout: {:?} samples added to a {:?} film",
+            pass.streams,
+            film.split
+        );
+        film.split = split;
+    }
+    assert!(split == HalfSplit::Interleaved || pass.offset == 0);
     let start = Instant::now();
     let rays = AtomicU64::new(0);
     let nonfinite = AtomicU64::new(0);

@@ -74,7 +74,8 @@ pub(crate) fn allocate(film: &Film, ratio: &[f32], max_spp: u32) -> Allocation {
 /// The smallest per-pixel total ≥ `n` at which each half-buffer's Owen-scrambled Sobol'
 /// samples are stratified: a power of two 2^k, or 3 · 2^(k−2) (≥ 6), whose half-buffers hold
 /// two whole (0,2)-nets, of 2^(k−2) and 2^(k−3) points (any aligned block of 2^m consecutive
-/// points of a (0,2)-sequence is a (0,m,2)-net). The 3/4 steps let an allocation depart from
+/// points of a (0,2)-sequence is a (0,m,2)-net; in the block layout of one sequence,
+/// [`crate::film::HalfSplit::Blocks`], nets of 2^(k−1) and 2^(k−2) points). The 3/4 steps let an allocation depart from
 /// uniform by a quarter of a budget instead of half of it. `n` is at most 2^31.
 pub(crate) fn stratified_total(n: u32) -> u32 {
     let p = n.max(1).next_power_of_two();

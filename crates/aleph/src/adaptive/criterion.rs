@@ -288,7 +288,8 @@ impl PerceptualCriterion {
                 let lb = luminance_image(&film.mean_rgb_odd(), scale);
                 la.par_iter()
                     .zip(lb.par_iter())
-                    .map(|(a, b)| 0.5 * (a - b).abs())
+                    .enumerate()
+                    .map(|(i, (a, b))| film.difference_scale(i) as f32 * (a - b).abs())
                     .collect()
             }
             ErrorEstimate::StandardError => (0..film.len())
@@ -543,9 +544,10 @@ pub(crate) fn relative_noise(film: &Film) -> Vec<f32> {
                 return f32::INFINITY;
             }
             let (a, b, m) = film.means(i);
+            let k = film.difference_scale(i);
             (0..3)
                 .map(|c| {
-                    let d = 0.5 * (a[c] - b[c]).abs();
+                    let d = k * (a[c] - b[c]).abs();
                     if d == 0.0 { 0.0 } else { (d / m[c]) as f32 }
                 })
                 .fold(0.0, f32::max)

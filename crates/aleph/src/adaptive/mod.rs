@@ -13,8 +13,12 @@
 //!    in one pass and nothing is judged: below it the decisions cost more than they save (a
 //!    frame reusing earlier frames levels its samples instead: [`render_reusing`]).
 //! 1. A uniform pass of `min_spp` samples.
-//! 2. Each pass: the error estimate from the two half-buffers (even and odd samples) is
-//!    e = |Y(A) − Y(B)| / 2 in scene luminance; the ratio r = e / threshold, averaged over 3×3
+//! 2. Each pass: the error estimate from the two half-buffers is e = k |Y(A) − Y(B)| in
+//!    scene luminance, k = √(n_A n_B) / n (½ for equal halves). The perceptual sampler's
+//!    halves are the power-of-two blocks of one Sobol' sequence per pixel (samples 0..P and
+//!    P..n, [`crate::film::HalfSplit::Blocks`]), so the image keeps the whole sequence's
+//!    stratification and e overstates the error only where the net beats Monte Carlo; the
+//!    variance sampler's are two independent streams (even and odd samples). The ratio r = e / threshold, averaged over 3×3
 //!    pixels so a single lucky pixel is not called converged, says how far a pixel is from
 //!    converged. (When the first pass spends a sample budget, nothing is judged.) Without an
 //!    average budget (the default stop, a time budget) r is also at least √(2/π) times the
@@ -29,7 +33,7 @@
 //!    doubling a pixel's count (so the estimate is re-checked often), at least n/4 to re-opened
 //!    neighbours, and never past `max_spp`.
 //!    Pixel totals land on `allocate::stratified_total`s (powers of two and their 3/4), where
-//!    each half-buffer's Sobol' samples are whole (0,2)-nets.
+//!    each half-buffer's Sobol' samples are whole (0,2)-nets in either layout.
 //! 4. Stop when the fraction of converged pixels (r ≤ 1) reaches `converged_fraction`, or at the
 //!    average budget (`budget_spp`), the per-pixel cap, or the time budget. With an average
 //!    budget B the sampler spends all of it: the perceptual sampler first lifts every pixel
@@ -329,17 +333,26 @@ impl AdaptiveSettings {
             && self.budget_spp.is_none_or(|b| b >= self.steer_from_spp)
     }
 
-    /// How the render's passes draw each pixel's samples ([`SampleStreams`]): independent
-    /// half-buffer streams wherever the half-buffers' difference is read (the perceptual
-    /// sampler's default estimate, the variance sampler, the denoised error), one sequence per
-    /// pixel where nothing reads it (the uniform sampler, a budget rendered uniformly, the
-    /// perceptual sampler with [`ErrorEstimate::StandardError`], which reads Σ Y²).
+    /// How the render's passes draw each pixel's samples ([`SampleStreams`]):
+    /// - the perceptual sampler's default estimate: one sequence per pixel whose half-buffers
+    ///   are its power-of-two blocks ([`SampleStreams::Blocks`]). Against independent
+    ///   half-buffer streams, on the Cornell box at 256² (4096-spp reference, budgets 256 /
+    ///   512 / 1024 spp) perceptual spp at uniform's FLIP mean rose from 0.94 / 1.03 / 1.02× to
+    ///   0.96 / 1.04 / 1.04×, and on the holodeck at 128² from 0.97–1.06× to 1.07–1.16×
+    ///   (docs/benchmarks.md);
+    /// - independent half-buffer streams ([`SampleStreams::Halves`]) where the halves must be
+    ///   independent: the variance sampler (Cycles' criterion compares half A with the whole)
+    ///   and the denoised error (each half denoised on its own);
+    /// - one sequence per pixel where nothing reads the halves ([`SampleStreams::Whole`]): the
+    ///   uniform sampler, a budget rendered uniformly, the perceptual sampler with
+    ///   [`ErrorEstimate::StandardError`], which reads Σ Y².
     pub fn streams(&self) -> SampleStreams {
-        let standard_error = self.criterion == Criterion::Perceptual
-            && self.perceptual.error_estimate == ErrorEstimate::StandardError
-            && !self.denoise;
-        if !self.steers() || standard_error {
+        let perceptual = self.criterion == Criterion::Perceptual && !self.denoise;
+        let estimate = self.perceptual.error_estimate;
+        if !self.steers() || (perceptual && estimate == ErrorEstimate::StandardError) {
             SampleStreams::Whole
+        } else if perceptual {
+            SampleStreams::Blocks
         } else {
             SampleStreams::Halves
         }

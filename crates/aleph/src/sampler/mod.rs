@@ -54,11 +54,30 @@ pub enum SampleStreams {
     /// and their difference is a conservative error estimate (it measures the Monte Carlo
     /// error, not the lower error of the net): for renders that do not steer by it.
     Whole,
+    /// One scrambled sequence per pixel, as `Whole`, whose half-buffers are its power-of-two
+    /// blocks ([`crate::film::HalfSplit::Blocks`]): with n samples, A holds samples 0..P and B
+    /// samples P..n (P the largest power of two below n), so at the stratified totals
+    /// (2^k and 3 · 2^(k − 2)) each half is a net and together they are the pixel's whole
+    /// sequence. Their difference overstates the error of the mean where the net converges
+    /// faster than Monte Carlo (its expectation is V(n/2) − V(n) against V(n) for equal halves,
+    /// V(m) the variance of an m-point net) and equals it where it does not. The perceptual
+    /// sampler's layout: it costs none of the 1.12× of `Halves`.
+    Blocks,
     /// Every pixel takes exactly this many samples in all (indices 0..N; a pass may draw a
     /// part of them), known before it is rendered: a correlated multi-jittered pattern of N
     /// points per pixel ([`cmj`]) with the default generator, whose half-buffers (even and odd
     /// samples) are random halves of it, as with `Whole`. Uniform renders of a budget.
     Fixed(u32),
+}
+
+impl SampleStreams {
+    /// The film layout of these samples' half-buffers.
+    pub fn split(self) -> crate::film::HalfSplit {
+        match self {
+            SampleStreams::Blocks => crate::film::HalfSplit::Blocks,
+            _ => crate::film::HalfSplit::Interleaved,
+        }
+    }
 }
 
 /// A source of canonical random numbers in [0, 1) for one camera sample.
