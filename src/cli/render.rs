@@ -52,7 +52,8 @@ impl From<SamplerArg> for Criterion {
 /// Error estimates on the command line.
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum ErrorEstimateArg {
-    /// |Y(A) − Y(B)| / 2 of the even and odd half-buffers.
+    /// k |Y(A) − Y(B)| of the two half-buffers: the power-of-two blocks of each pixel's
+    /// sequence (k = √(n_A n_B)/n, ½ for equal halves).
     HalfBuffers,
     /// sqrt(var(Y) / n) from the sum of squared luminance.
     StandardError,
