@@ -184,15 +184,7 @@ impl PixelStats {
     /// Adds the sample with index `self.n`.
     #[inline]
     pub fn add(&mut self, rgb: Vec3) {
-        let v = rgb.as_dvec3();
-        if self.n.is_multiple_of(2) {
-            self.sum_even.add(v);
-        } else {
-            self.sum_odd.add(v);
-        }
-        let y = crate::math::luminance(rgb) as f64;
-        self.sum_lum2.add(y * y);
-        self.n += 1;
+        self.add_to_half(rgb, self.n.is_multiple_of(2));
     }
 
     /// Adds the sample with index `self.n` to a [`HalfSplit::Blocks`] film's pixel: at a
@@ -200,14 +192,20 @@ impl PixelStats {
     /// A). The pixel's sum, count and Σ Y² are those [`PixelStats::add`] gives.
     #[inline]
     pub fn add_block(&mut self, rgb: Vec3) {
+        if self.n.is_power_of_two() {
+            let b = std::mem::take(&mut self.sum_odd);
+            self.sum_even.merge(&b);
+        }
+        self.add_to_half(rgb, self.n == 0);
+    }
+
+    /// Adds the sample with index `self.n` to half-buffer A (`to_a`) or B, and to Σ Y².
+    #[inline]
+    fn add_to_half(&mut self, rgb: Vec3, to_a: bool) {
         let v = rgb.as_dvec3();
-        if self.n == 0 {
+        if to_a {
             self.sum_even.add(v);
         } else {
-            if self.n.is_power_of_two() {
-                let b = std::mem::take(&mut self.sum_odd);
-                self.sum_even.merge(&b);
-            }
             self.sum_odd.add(v);
         }
         let y = crate::math::luminance(rgb) as f64;
@@ -242,35 +240,39 @@ impl PixelStats {
     /// Number of samples in half-buffer A (even indices).
     #[inline]
     pub fn n_even(&self) -> u32 {
-        self.n.div_ceil(2) - self.first.div_ceil(2)
+        HalfSplit::Interleaved.counts(self.first, self.n).0
     }
 
     /// Number of samples in half-buffer B (odd indices).
     #[inline]
     pub fn n_odd(&self) -> u32 {
-        self.n / 2 - self.first / 2
+        HalfSplit::Interleaved.counts(self.first, self.n).1
     }
 
-    /// Mean of half-buffer A (zero when empty).
+    /// Mean of half-buffer A (even indices; zero when empty).
     #[inline]
     pub fn mean_even(&self) -> DVec3 {
-        let n = self.n_even();
-        if n == 0 {
-            DVec3::ZERO
-        } else {
-            self.sum_even.value() / n as f64
-        }
+        self.half_means(HalfSplit::Interleaved).0
     }
 
-    /// Mean of half-buffer B (zero when empty).
+    /// Mean of half-buffer B (odd indices; zero when empty).
     #[inline]
     pub fn mean_odd(&self) -> DVec3 {
-        let n = self.n_odd();
-        if n == 0 {
-            DVec3::ZERO
-        } else {
-            self.sum_odd.value() / n as f64
-        }
+        self.half_means(HalfSplit::Interleaved).1
+    }
+
+    /// Means of half-buffers A and B under `split` (zero where a half is empty).
+    #[inline]
+    pub fn half_means(&self, split: HalfSplit) -> (DVec3, DVec3) {
+        let (na, nb) = split.counts(self.first, self.n);
+        let mean = |s: &ExactRgb, n: u32| {
+            if n == 0 {
+                DVec3::ZERO
+            } else {
+                s.value() / n as f64
+            }
+        };
+        (mean(&self.sum_even, na), mean(&self.sum_odd, nb))
     }
 
     /// Unbiased sample variance of the luminance of one sample (0 with fewer than 2 samples).
@@ -415,20 +417,8 @@ impl Film {
     pub fn means(&self, i: usize) -> (DVec3, DVec3, DVec3) {
         let p = &self.pixels[i];
         let Some(h) = self.reused(i) else {
-            return match self.split {
-                HalfSplit::Interleaved => (p.mean_even(), p.mean_odd(), p.mean()),
-                HalfSplit::Blocks => {
-                    let (na, nb) = self.split.counts(p.first, p.n);
-                    let mean = |s: &ExactRgb, n: u32| {
-                        if n == 0 {
-                            DVec3::ZERO
-                        } else {
-                            s.value() / n as f64
-                        }
-                    };
-                    (mean(&p.sum_even, na), mean(&p.sum_odd, nb), p.mean())
-                }
-            };
+            let (a, b) = p.half_means(self.split);
+            return (a, b, p.mean());
         };
         debug_assert_eq!(self.split, HalfSplit::Interleaved, "a film with history");
         // A spread excess may be negative in a channel (a dropped firefly of another colour
@@ -451,14 +441,9 @@ impl Film {
     /// mean's error ([`HalfSplit::difference_scale`]): ½ for interleaved halves.
     #[inline]
     pub fn difference_scale(&self, i: usize) -> f64 {
-        match self.split {
-            HalfSplit::Interleaved => 0.5,
-            HalfSplit::Blocks => {
-                let p = &self.pixels[i];
-                let (na, nb) = self.split.counts(p.first, p.n);
-                self.split.difference_scale(na as f64, nb as f64)
-            }
-        }
+        let p = &self.pixels[i];
+        let (na, nb) = self.split.counts(p.first, p.n);
+        self.split.difference_scale(na as f64, nb as f64)
     }
 
     /// Samples behind pixel `i`'s estimate: its fresh count plus the reused weight.
