@@ -101,7 +101,19 @@ enum Source {
         /// The luminance irradiance's spherical-harmonic coefficients in map space, Â_l L_lm
         /// ([`irradiance_sh`]).
         sh: [f32; 9],
+        /// Per row r: cos θ at its top edge and [`row_solid_angle`] (tabulated: each draw and
+        /// density needed two or three sines).
+        rows: Vec<RowAngles>,
     },
+}
+
+/// [`Source::Map`]'s per-row table.
+#[derive(Clone, Copy, Debug)]
+struct RowAngles {
+    /// cos θ₀, θ₀ = πr/h.
+    cos_top: f32,
+    /// [`row_solid_angle`].
+    omega: f32,
 }
 
 impl Environment {
@@ -153,6 +165,12 @@ impl Environment {
         }
         let dist = Distribution2D::new(&weights, width, height)?;
         let sh = irradiance_sh(&y, width, height);
+        let rows = (0..height)
+            .map(|r| RowAngles {
+                cos_top: (PI * r as f32 / height as f32).cos(),
+                omega: row_solid_angle(r, height),
+            })
+            .collect();
         let to_world = Mat3::from_rotation_y(rotate_deg.to_radians());
         Some(Environment {
             to_map: to_world.transpose(),
@@ -164,6 +182,7 @@ impl Environment {
                 dist,
                 mean_y: (sum_y / sum_w) as f32,
                 sh,
+                rows,
             },
         })
     }
@@ -237,13 +256,35 @@ impl Environment {
     pub fn radiance(&self, d: Vec3) -> Vec3 {
         match &self.source {
             Source::Constant(c) => *c,
+            Source::Map { .. } => self.map_radiance(self.uv(d)),
+        }
+    }
+
+    /// [`Environment::radiance`] and [`Environment::pdf`] of world direction `d` for a surface
+    /// of unit shading normal `n` (or zero), the map's (u, v) found once: the same values as
+    /// the two calls (a ray that left the scene needs both for MIS).
+    #[inline]
+    pub fn radiance_and_pdf(&self, d: Vec3, n: Vec3) -> (Vec3, f32) {
+        match &self.source {
+            Source::Map { .. } => {
+                let uv = self.uv(d);
+                (self.map_radiance(uv), self.map_pdf(uv))
+            }
+            Source::Constant(_) => (self.radiance(d), self.pdf(d, n)),
+        }
+    }
+
+    /// The map's radiance at (u, v), bilinear between texel centres (black for a constant).
+    #[inline]
+    fn map_radiance(&self, uv: Vec2) -> Vec3 {
+        match &self.source {
+            Source::Constant(_) => Vec3::ZERO,
             Source::Map {
                 width,
                 height,
                 texels,
                 ..
             } => {
-                let uv = self.uv(d);
                 let x = uv.x * *width as f32 - 0.5;
                 let y = uv.y * *height as f32 - 0.5;
                 let (x0, y0) = (x.floor(), y.floor());
@@ -287,7 +328,9 @@ impl Environment {
                 let d = crate::sampling::square_to_uniform_sphere(u);
                 Some((d, *c, 0.25 / PI))
             }
-            Source::Map { dist, height, .. } => {
+            Source::Map {
+                dist, height, rows, ..
+            } => {
                 let (p, pdf_uv) = dist.sample(u);
                 // Within its row, a texel is sampled uniformly in cos θ (equal solid angle), so
                 // the density is constant over the texel: p(ω) = p(u, v) / (2π h Δcos θ).
@@ -295,13 +338,13 @@ impl Environment {
                 let y = p.y * h as f32;
                 let r = (y as usize).min(h - 1);
                 let t = (y - r as f32).clamp(0.0, 1.0);
-                let c0 = (PI * r as f32 / h as f32).cos();
-                let cos_t = (c0 - t * row_solid_angle(r, h)).clamp(-1.0, 1.0);
+                let RowAngles { cos_top, omega } = rows[r];
+                let cos_t = (cos_top - t * omega).clamp(-1.0, 1.0);
                 let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
                 let phi = 2.0 * PI * p.x;
                 let (sp, cp) = phi.sin_cos();
                 let d = self.to_world * Vec3::new(sin_t * sp, cos_t, -sin_t * cp);
-                let pdf = pdf_uv / (2.0 * PI * h as f32 * row_solid_angle(r, h));
+                let pdf = pdf_uv / (2.0 * PI * h as f32 * omega);
                 if pdf.is_nan() || pdf <= 0.0 {
                     return None;
                 }
@@ -317,10 +360,20 @@ impl Environment {
         match &self.source {
             Source::Constant(_) if n != Vec3::ZERO => d.dot(n).max(0.0) * (1.0 / PI),
             Source::Constant(_) => 0.25 / PI,
-            Source::Map { dist, height, .. } => {
-                let uv = self.uv(d);
+            Source::Map { .. } => self.map_pdf(self.uv(d)),
+        }
+    }
+
+    /// The map's solid-angle density at (u, v) ([`Environment::pdf`]; 0 for a constant).
+    #[inline]
+    fn map_pdf(&self, uv: Vec2) -> f32 {
+        match &self.source {
+            Source::Constant(_) => 0.0,
+            Source::Map {
+                dist, height, rows, ..
+            } => {
                 let r = ((uv.y * *height as f32) as usize).min(height - 1);
-                dist.density(uv) / (2.0 * PI * *height as f32 * row_solid_angle(r, *height))
+                dist.density(uv) / (2.0 * PI * *height as f32 * rows[r].omega)
             }
         }
     }

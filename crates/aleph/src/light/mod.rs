@@ -520,9 +520,9 @@ impl Lights {
             let pmf = || self.choice_pmf(Vec3::ZERO, n, first + k);
             match light {
                 Light::Environment(env) => {
-                    let le = env.radiance(d);
+                    let (le, pdf) = env.radiance_and_pdf(d, n);
                     if le.max_element() > 0.0 {
-                        l += le * weight(pmf() * env.pdf(d, n));
+                        l += le * weight(pmf() * pdf);
                     }
                 }
                 Light::Sun(sun) if sun.contains(d) => {
