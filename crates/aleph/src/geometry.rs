@@ -328,6 +328,10 @@ pub struct Geometry {
     pub build_time: Duration,
     /// Alpha cut-outs, if any material has one.
     cutouts: Option<Cutouts>,
+    /// Bit i of word i / 64: whether triangle i's material has a cut-out mask (empty without
+    /// cut-outs). Every candidate hit asks, and a bit per triangle stays in cache where the
+    /// triangles' materials (4 bytes each, 0.9 MB on Lost Empire) do not.
+    cut_tris: Vec<u64>,
 }
 
 /// A single-channel coverage mask (MTL `map_d`): texels in [0, 1], row 0 at the top, looked up
@@ -449,6 +453,7 @@ impl Geometry {
             tris,
             build_time: start.elapsed(),
             cutouts: None,
+            cut_tris: Vec::new(),
         }
     }
 
@@ -456,6 +461,19 @@ impl Geometry {
     /// mask is below ½). `None` or a set without masks makes every surface opaque.
     pub fn set_cutouts(&mut self, cutouts: Option<Cutouts>) {
         self.cutouts = cutouts.filter(|c| !c.masks.is_empty());
+        self.cut_tris = match &self.cutouts {
+            Some(c) => {
+                let mut bits = vec![0u64; self.tris.len().div_ceil(64)];
+                for i in 0..self.tris.len() {
+                    let m = self.tris.material(i) as usize;
+                    if c.by_material.get(m).is_some_and(|&k| k != u32::MAX) {
+                        bits[i / 64] |= 1 << (i % 64);
+                    }
+                }
+                bits
+            }
+            None => Vec::new(),
+        };
     }
 
     /// True when triangle `tri` is present at barycentrics (b1, b2): always, unless its
@@ -463,10 +481,11 @@ impl Geometry {
     #[inline]
     fn present(&self, tri: u32, b1: f32, b2: f32) -> bool {
         let Some(c) = &self.cutouts else { return true };
-        let m = c.by_material[self.tris.material(tri as usize) as usize];
-        if m == u32::MAX {
+        let t = tri as usize;
+        if self.cut_tris[t / 64] & 1 << (t % 64) == 0 {
             return true;
         }
+        let m = c.by_material[self.tris.material(t) as usize];
         let t = self.tris.uvs(tri as usize);
         let uv = t[0] * (1.0 - b1 - b2) + t[1] * b1 + t[2] * b2;
         c.masks[m as usize].covers(uv)
