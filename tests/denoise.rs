@@ -147,6 +147,59 @@ mod with_oidn {
         assert!(denoised.text.contains_key("denoiser"));
     }
 
+    /// The layers `prefix`R/G/B (or X/Y/Z) of `raw` interleaved, as the denoiser takes them.
+    fn interleaved(raw: &aleph::imageio::RawExr, prefix: &str, names: [&str; 3]) -> Vec<f32> {
+        let c: Vec<&[f32]> = names
+            .iter()
+            .map(|n| channel(raw, &format!("{prefix}{n}")))
+            .collect();
+        (0..c[0].len())
+            .flat_map(|i| [c[0][i], c[1][i], c[2][i]])
+            .collect()
+    }
+
+    #[test]
+    fn the_library_denoises_again_to_the_same_bits_and_its_fast_model_denoises_too() {
+        let d = tempdir();
+        let denoised = render(d.path(), "d", "4", &["--denoise"]);
+        let reference = render(d.path(), "r", "1024", &[]);
+        let noisy = interleaved(&denoised, "Noisy.", ["R", "G", "B"]);
+        let aux = aleph::denoise::Aux {
+            albedo: interleaved(&denoised, "Denoising Albedo.", ["R", "G", "B"]),
+            normal: interleaved(&denoised, "Denoising Normal.", ["X", "Y", "Z"]),
+        };
+        let shown = interleaved(&denoised, "", ["R", "G", "B"]);
+        // The process's one device, used twice, gives what a fresh process gave (the CLI's).
+        for _ in 0..2 {
+            let again = aleph::denoise::denoise(&noisy, 64, 64, &aux).unwrap();
+            assert!(
+                again
+                    .iter()
+                    .zip(&shown)
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+            );
+        }
+        // The fast model (the preview's refinements) takes most of the noise away too.
+        use aleph::denoise::{Quality, denoise_with};
+        let fast = denoise_with(&noisy, 64, 64, &aux, Quality::Fast).unwrap();
+        assert!(fast.iter().all(|v| v.is_finite() && *v >= 0.0));
+        let refl = interleaved(&reference, "", ["R", "G", "B"]);
+        let rel = |img: &[f32]| {
+            let s: f64 = img
+                .iter()
+                .zip(&refl)
+                .map(|(&a, &b)| (a as f64 - b as f64).powi(2) / ((b as f64).powi(2) + 0.01))
+                .sum();
+            s / img.len() as f64
+        };
+        let (raw, high, fast) = (rel(&noisy), rel(&shown), rel(&fast));
+        eprintln!("relMSE against 1024 spp: raw {raw:.4}, high {high:.4}, fast {fast:.4}");
+        assert!(
+            fast < raw / 3.0,
+            "fast model's relMSE {fast} against raw {raw}"
+        );
+    }
+
     /// Mean of |v| over each `b × b` block of a `w`-wide image.
     fn blocks(v: &[f32], w: usize, b: usize) -> Vec<f32> {
         let h = v.len() / w;

@@ -758,9 +758,9 @@ pub struct Refinement<'a> {
 }
 
 /// [`render_adaptive`], calling `refined` with the film (and, when the loop denoises, its
-/// denoised image) after every pass that added samples, before it is judged, so a preview
-/// shows each refinement as early as it can. The last refinement's denoised image is the
-/// result's: the film is not denoised again.
+/// image denoised by OIDN's fast model, [`crate::denoise::Quality::Fast`]) after every pass
+/// that added samples, before it is judged, so a preview shows each refinement as early as it
+/// can. The result's image is denoised again by the high-quality model.
 ///
 /// # Errors
 /// As [`render_adaptive`].
@@ -798,20 +798,14 @@ fn render_with_hooks(
     // The loop's wall time includes the refinements' denoising; the auxiliary images and the
     // final denoising are added to it.
     let mut r = adaptive_loop(scene, s, &hooks)?;
-    let Hooks {
-        last, denoise_time, ..
-    } = hooks;
+    let Hooks { denoise_time, .. } = hooks;
     r.denoise_time = aux_time + denoise_time.get();
     if let Some(aux) = aux {
         let t = Instant::now();
         let noisy = r.film.mean_rgb();
-        let rgb = match last.into_inner() {
-            Some((samples, rgb)) if samples == r.film.total_samples() => rgb,
-            _ => {
-                let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-                crate::denoise::denoise(&noisy, w, h, &aux)?
-            }
-        };
+        // The refinements were denoised by the fast model; the result by the high one.
+        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+        let rgb = crate::denoise::denoise(&noisy, w, h, &aux)?;
         r.denoise_time += t.elapsed();
         r.wall += aux_time + t.elapsed();
         r.denoised = Some(Denoised { rgb, noisy, aux });
@@ -826,8 +820,8 @@ struct Hooks<'a> {
     sample_progress: &'a (dyn Fn(u64) + Sync),
     refined: Option<&'a (dyn Fn(&Refinement) + Sync)>,
     aux: Option<&'a Aux>,
-    /// The last refinement's denoised image and the film's samples when it was made.
-    last: RefCell<Option<(u64, Vec<f32>)>>,
+    /// The last refinement's denoised image (fast model).
+    last: RefCell<Option<Vec<f32>>>,
     /// Wall time spent denoising: the auxiliary images and the refinements.
     denoise_time: Cell<Duration>,
 }
@@ -842,15 +836,21 @@ impl Hooks<'_> {
         if let Some(aux) = self.aux {
             let t = Instant::now();
             let (w, h) = (film.width as usize, film.height as usize);
-            let rgb = crate::denoise::denoise(&film.mean_rgb(), w, h, aux)?;
+            let rgb = crate::denoise::denoise_with(
+                &film.mean_rgb(),
+                w,
+                h,
+                aux,
+                crate::denoise::Quality::Fast,
+            )?;
             self.denoise_time.set(self.denoise_time.get() + t.elapsed());
-            *self.last.borrow_mut() = Some((film.total_samples(), rgb));
+            *self.last.borrow_mut() = Some(rgb);
         }
         let last = self.last.borrow();
         refined(&Refinement {
             passes,
             film,
-            denoised: last.as_ref().map(|(_, rgb)| rgb.as_slice()),
+            denoised: last.as_deref(),
         });
         Ok(())
     }
