@@ -284,3 +284,24 @@ def test_preview_rewrites_the_png_and_ends_on_time(tmp_path, cornell):
 def test_preview_and_denoise_refusals(cornell, kw, words):
     with pytest.raises(aleph.JobError, match=words):
         aleph.RenderJob(cornell, **kw)
+
+
+def _render_in_worker(scene, queue):
+    queue.put(aleph.render(scene, spp=4, resolution=(48, 40), denoise=aleph.DENOISER).rgb)
+
+
+def test_a_spawned_worker_renders_the_parents_image(cornell):
+    """Worker processes are started with "spawn" (docs/python.md: a process forked after its
+    parent rendered inherits its thread pools without their threads); one renders what the
+    parent does, bit for bit, denoised too in a build with the denoiser."""
+    import multiprocessing as mp
+
+    parent = aleph.render(cornell, spp=4, resolution=(48, 40), denoise=aleph.DENOISER)
+    ctx = mp.get_context("spawn")
+    queue = ctx.Queue()
+    p = ctx.Process(target=_render_in_worker, args=(str(cornell), queue))
+    p.start()
+    child = queue.get(timeout=120)
+    p.join(timeout=60)
+    assert p.exitcode == 0
+    assert same_bits(child, parent.rgb)
