@@ -391,6 +391,17 @@ mod preview {
         assert!(denoised, "{rows:?}");
         let out = |ext: &str| dir.path().join(format!("p.{ext}"));
         assert!(out("png").is_file() && out("exr").is_file());
+        if aleph::denoise::AVAILABLE {
+            // The first image was denoised with quick auxiliaries; the result has the full
+            // ones, those of a render without --preview.
+            let exr = aleph::imageio::read_exr_raw(&out("exr")).unwrap();
+            let scene = job.load_scene().unwrap();
+            let seed = scene.settings.seed;
+            let full = aleph::denoise::render_aux(&scene, aleph::denoise::AUX_SPP, seed);
+            let written = &exr.f32s["Denoising Albedo.G"];
+            let mut same = full.albedo.chunks_exact(3).zip(written.iter());
+            assert!(same.all(|(a, w)| a[1].to_bits() == w.to_bits()));
+        }
         (rows, stop)
     }
 

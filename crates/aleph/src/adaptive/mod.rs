@@ -90,7 +90,7 @@ use allocate::{Allocation, allocate, fit_to_budget};
 use criterion::{Judge, Judgement, PerceptualCriterion, VarianceCriterion};
 use perception::threshold::ThresholdParams;
 use rayon::prelude::*;
-use std::cell::{Cell, RefCell};
+use std::cell::{Cell, OnceCell, RefCell};
 use std::time::{Duration, Instant};
 
 /// The adaptive decision rule: which per-pixel decision steers the samples (serialized by its
@@ -783,25 +783,38 @@ fn render_with_hooks(
 ) -> Result<AdaptiveResult, AdaptiveError> {
     s.validate()?;
     let t_aux = Instant::now();
-    let aux = s
-        .denoise
-        .then(|| crate::denoise::render_aux(scene, crate::denoise::AUX_SPP, scene.settings.seed));
+    let seed = scene.settings.seed;
+    // A preview shows its first image with auxiliaries of fewer samples and makes the full
+    // ones right after it (`Hooks::refined`); a render makes them first.
+    let preview = refined.is_some();
+    let first_aux = (s.denoise && preview)
+        .then(|| crate::denoise::render_aux(scene, crate::denoise::PREVIEW_FIRST_AUX_SPP, seed));
+    let aux = OnceCell::new();
+    if s.denoise && !preview {
+        let _ = aux.set(crate::denoise::render_aux(
+            scene,
+            crate::denoise::AUX_SPP,
+            seed,
+        ));
+    }
     let aux_time = t_aux.elapsed();
     let hooks = Hooks {
         progress,
         sample_progress,
         refined,
-        aux: aux.as_ref(),
+        scene,
+        aux,
+        first_aux,
         last: RefCell::new(None),
         denoise_time: Cell::new(Duration::ZERO),
     };
-    // The loop's wall time includes the refinements' denoising; the auxiliary images and the
-    // final denoising are added to it.
+    // The loop's wall time includes the refinements' denoising (and a preview's full
+    // auxiliaries); the auxiliary images made before it and the final denoising are added.
     let mut r = adaptive_loop(scene, s, &hooks)?;
-    let Hooks { denoise_time, .. } = hooks;
-    r.denoise_time = aux_time + denoise_time.get();
-    if let Some(aux) = aux {
+    r.denoise_time = aux_time + hooks.denoise_time.get();
+    if s.denoise {
         let t = Instant::now();
+        let aux = hooks.take_aux();
         let noisy = r.film.mean_rgb();
         // The refinements were denoised by the fast model; the result by the high one.
         let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
@@ -819,7 +832,13 @@ struct Hooks<'a> {
     progress: &'a (dyn Fn(&PassReport) + Sync),
     sample_progress: &'a (dyn Fn(u64) + Sync),
     refined: Option<&'a (dyn Fn(&Refinement) + Sync)>,
-    aux: Option<&'a Aux>,
+    scene: &'a Scene,
+    /// The denoiser's auxiliary images at [`crate::denoise::AUX_SPP`], when the loop
+    /// denoises: made before the loop, or for a preview after its first image.
+    aux: OnceCell<Aux>,
+    /// A preview's auxiliary images for its first image, at
+    /// [`crate::denoise::PREVIEW_FIRST_AUX_SPP`].
+    first_aux: Option<Aux>,
     /// The last refinement's denoised image (fast model).
     last: RefCell<Option<Vec<f32>>>,
     /// Wall time spent denoising: the auxiliary images and the refinements.
@@ -827,13 +846,36 @@ struct Hooks<'a> {
 }
 
 impl Hooks<'_> {
+    /// The auxiliary images the loop judges by and the result is denoised with ([`Hooks::aux`]),
+    /// made now if a preview has not made them yet; `None` when the loop does not denoise.
+    fn aux(&self) -> Option<&Aux> {
+        if self.aux.get().is_none() && self.first_aux.is_some() {
+            let t = Instant::now();
+            let seed = self.scene.settings.seed;
+            let full = crate::denoise::render_aux(self.scene, crate::denoise::AUX_SPP, seed);
+            let _ = self.aux.set(full);
+            self.denoise_time.set(self.denoise_time.get() + t.elapsed());
+        }
+        self.aux.get()
+    }
+
+    /// The full auxiliary images, for the result.
+    ///
+    /// # Panics
+    /// If the loop does not denoise.
+    fn take_aux(mut self) -> Aux {
+        self.aux();
+        self.aux.take().expect("the loop denoises")
+    }
+
     /// Shows the film after pass `passes` to the refinement callback, if any, denoised first
-    /// when the loop denoises.
+    /// (by the fast model) when the loop denoises; a preview's first image with its quick
+    /// auxiliaries, after which the full ones are made.
     fn refined(&self, passes: usize, film: &Film) -> Result<(), AdaptiveError> {
         let Some(refined) = self.refined else {
             return Ok(());
         };
-        if let Some(aux) = self.aux {
+        if let Some(aux) = self.aux.get().or(self.first_aux.as_ref()) {
             let t = Instant::now();
             let (w, h) = (film.width as usize, film.height as usize);
             let rgb = crate::denoise::denoise_with(
@@ -846,12 +888,15 @@ impl Hooks<'_> {
             self.denoise_time.set(self.denoise_time.get() + t.elapsed());
             *self.last.borrow_mut() = Some(rgb);
         }
-        let last = self.last.borrow();
-        refined(&Refinement {
-            passes,
-            film,
-            denoised: last.as_deref(),
-        });
+        {
+            let last = self.last.borrow();
+            refined(&Refinement {
+                passes,
+                film,
+                denoised: last.as_deref(),
+            });
+        }
+        self.aux();
         Ok(())
     }
 }
@@ -901,7 +946,7 @@ fn adaptive_loop(
     let (judgement, stop) = loop {
         let t0 = Instant::now();
         let refresh_before = criterion.next_refresh_spp();
-        let (judgement, guide_time) = criterion.judge(scene, &st.film, s, hooks.aux)?;
+        let (judgement, guide_time) = criterion.judge(scene, &st.film, s, hooks.aux())?;
         let noise = criterion.relative_noise(&st.film);
         let ratio = Judge::ratio(&judgement, noise.as_deref());
         let judged = t0.elapsed().saturating_sub(guide_time);
