@@ -486,8 +486,8 @@ impl Geometry {
             return true;
         }
         let m = c.by_material[self.tris.material(t) as usize];
-        let t = self.tris.uvs(tri as usize);
-        let uv = t[0] * (1.0 - b1 - b2) + t[1] * b1 + t[2] * b2;
+        let uvs = self.tris.uvs(t);
+        let uv = uvs[0] * (1.0 - b1 - b2) + uvs[1] * b1 + uvs[2] * b2;
         c.masks[m as usize].covers(uv)
     }
 

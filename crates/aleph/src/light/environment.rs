@@ -90,24 +90,28 @@ pub struct Environment {
 #[derive(Clone, Debug)]
 enum Source {
     Constant(Vec3),
-    Map {
-        width: usize,
-        height: usize,
-        /// Row-major linear RGB radiance (strength applied), row 0 = zenith.
-        texels: Vec<Vec3>,
-        dist: Distribution2D,
-        /// Mean luminance over the sphere (solid-angle weighted).
-        mean_y: f32,
-        /// The luminance irradiance's spherical-harmonic coefficients in map space, Â_l L_lm
-        /// ([`irradiance_sh`]).
-        sh: [f32; 9],
-        /// Per row r: cos θ at its top edge and [`row_solid_angle`] (tabulated: each draw and
-        /// density needed two or three sines).
-        rows: Vec<RowAngles>,
-    },
+    Map(Map),
 }
 
-/// [`Source::Map`]'s per-row table.
+/// An equirectangular map and what sampling it needs, in map space.
+#[derive(Clone, Debug)]
+struct Map {
+    width: usize,
+    height: usize,
+    /// Row-major linear RGB radiance (strength applied), row 0 = zenith.
+    texels: Vec<Vec3>,
+    dist: Distribution2D,
+    /// Mean luminance over the sphere (solid-angle weighted).
+    mean_y: f32,
+    /// The luminance irradiance's spherical-harmonic coefficients in map space, Â_l L_lm
+    /// ([`irradiance_sh`]).
+    sh: [f32; 9],
+    /// Per row r: cos θ at its top edge and [`row_solid_angle`] (tabulated: each draw and
+    /// density needed two or three sines).
+    rows: Vec<RowAngles>,
+}
+
+/// [`Map`]'s per-row table.
 #[derive(Clone, Copy, Debug)]
 struct RowAngles {
     /// cos θ₀, θ₀ = πr/h.
@@ -175,7 +179,7 @@ impl Environment {
         Some(Environment {
             to_map: to_world.transpose(),
             to_world,
-            source: Source::Map {
+            source: Source::Map(Map {
                 width,
                 height,
                 texels,
@@ -183,7 +187,7 @@ impl Environment {
                 mean_y: (sum_y / sum_w) as f32,
                 sh,
                 rows,
-            },
+            }),
         })
     }
 
@@ -191,7 +195,7 @@ impl Environment {
     pub fn mean_luminance(&self) -> f32 {
         match &self.source {
             Source::Constant(c) => luminance(*c),
-            Source::Map { mean_y, .. } => *mean_y,
+            Source::Map(m) => m.mean_y,
         }
     }
 
@@ -207,13 +211,13 @@ impl Environment {
     pub fn irradiance(&self, n: Vec3) -> f32 {
         match &self.source {
             Source::Constant(c) => PI * luminance(*c),
-            Source::Map { mean_y, sh, .. } => {
-                let mean = PI * *mean_y;
+            Source::Map(m) => {
+                let mean = PI * m.mean_y;
                 if n == Vec3::ZERO {
                     return mean;
                 }
                 let b = sh_basis(self.to_map * n);
-                let e: f32 = sh.iter().zip(b).map(|(c, y)| c * y).sum();
+                let e: f32 = m.sh.iter().zip(b).map(|(c, y)| c * y).sum();
                 e.max(0.05 * mean)
             }
         }
@@ -223,7 +227,7 @@ impl Environment {
     pub fn max_radiance(&self) -> Vec3 {
         match &self.source {
             Source::Constant(c) => *c,
-            Source::Map { texels, .. } => texels.iter().fold(Vec3::ZERO, |a, &t| a.max(t)),
+            Source::Map(m) => m.texels.iter().fold(Vec3::ZERO, |a, &t| a.max(t)),
         }
     }
 
@@ -256,7 +260,7 @@ impl Environment {
     pub fn radiance(&self, d: Vec3) -> Vec3 {
         match &self.source {
             Source::Constant(c) => *c,
-            Source::Map { .. } => self.map_radiance(self.uv(d)),
+            Source::Map(m) => m.radiance(self.uv(d)),
         }
     }
 
@@ -266,38 +270,11 @@ impl Environment {
     #[inline]
     pub fn radiance_and_pdf(&self, d: Vec3, n: Vec3) -> (Vec3, f32) {
         match &self.source {
-            Source::Map { .. } => {
+            Source::Map(m) => {
                 let uv = self.uv(d);
-                (self.map_radiance(uv), self.map_pdf(uv))
+                (m.radiance(uv), m.pdf(uv))
             }
             Source::Constant(_) => (self.radiance(d), self.pdf(d, n)),
-        }
-    }
-
-    /// The map's radiance at (u, v), bilinear between texel centres (black for a constant).
-    #[inline]
-    fn map_radiance(&self, uv: Vec2) -> Vec3 {
-        match &self.source {
-            Source::Constant(_) => Vec3::ZERO,
-            Source::Map {
-                width,
-                height,
-                texels,
-                ..
-            } => {
-                let x = uv.x * *width as f32 - 0.5;
-                let y = uv.y * *height as f32 - 0.5;
-                let (x0, y0) = (x.floor(), y.floor());
-                let (fx, fy) = (x - x0, y - y0);
-                let (w, h) = (*width as i64, *height as i64);
-                let t = |dx: i64, dy: i64| {
-                    let cx = (x0 as i64 + dx).rem_euclid(w) as usize;
-                    let cy = (y0 as i64 + dy).clamp(0, h - 1) as usize;
-                    texels[cy * *width + cx]
-                };
-                (t(0, 0) * (1.0 - fx) + t(1, 0) * fx) * (1.0 - fy)
-                    + (t(0, 1) * (1.0 - fx) + t(1, 1) * fx) * fy
-            }
         }
     }
 
@@ -328,17 +305,15 @@ impl Environment {
                 let d = crate::sampling::square_to_uniform_sphere(u);
                 Some((d, *c, 0.25 / PI))
             }
-            Source::Map {
-                dist, height, rows, ..
-            } => {
-                let (p, pdf_uv) = dist.sample(u);
+            Source::Map(m) => {
+                let (p, pdf_uv) = m.dist.sample(u);
                 // Within its row, a texel is sampled uniformly in cos θ (equal solid angle), so
                 // the density is constant over the texel: p(ω) = p(u, v) / (2π h Δcos θ).
-                let h = *height;
+                let h = m.height;
                 let y = p.y * h as f32;
                 let r = (y as usize).min(h - 1);
                 let t = (y - r as f32).clamp(0.0, 1.0);
-                let RowAngles { cos_top, omega } = rows[r];
+                let RowAngles { cos_top, omega } = m.rows[r];
                 let cos_t = (cos_top - t * omega).clamp(-1.0, 1.0);
                 let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
                 let phi = 2.0 * PI * p.x;
@@ -348,7 +323,7 @@ impl Environment {
                 if pdf.is_nan() || pdf <= 0.0 {
                     return None;
                 }
-                Some((d, self.radiance(d), pdf))
+                Some((d, m.radiance(self.uv(d)), pdf))
             }
         }
     }
@@ -360,22 +335,35 @@ impl Environment {
         match &self.source {
             Source::Constant(_) if n != Vec3::ZERO => d.dot(n).max(0.0) * (1.0 / PI),
             Source::Constant(_) => 0.25 / PI,
-            Source::Map { .. } => self.map_pdf(self.uv(d)),
+            Source::Map(m) => m.pdf(self.uv(d)),
         }
     }
+}
 
-    /// The map's solid-angle density at (u, v) ([`Environment::pdf`]; 0 for a constant).
+impl Map {
+    /// Radiance at (u, v), bilinear between texel centres.
     #[inline]
-    fn map_pdf(&self, uv: Vec2) -> f32 {
-        match &self.source {
-            Source::Constant(_) => 0.0,
-            Source::Map {
-                dist, height, rows, ..
-            } => {
-                let r = ((uv.y * *height as f32) as usize).min(height - 1);
-                dist.density(uv) / (2.0 * PI * *height as f32 * rows[r].omega)
-            }
-        }
+    fn radiance(&self, uv: Vec2) -> Vec3 {
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (w, h) = (self.width as i64, self.height as i64);
+        let t = |dx: i64, dy: i64| {
+            let cx = (x0 as i64 + dx).rem_euclid(w) as usize;
+            let cy = (y0 as i64 + dy).clamp(0, h - 1) as usize;
+            self.texels[cy * self.width + cx]
+        };
+        (t(0, 0) * (1.0 - fx) + t(1, 0) * fx) * (1.0 - fy)
+            + (t(0, 1) * (1.0 - fx) + t(1, 1) * fx) * fy
+    }
+
+    /// Solid-angle density at (u, v) with which [`Environment::sample`] draws from the map.
+    #[inline]
+    fn pdf(&self, uv: Vec2) -> f32 {
+        let h = self.height;
+        let r = ((uv.y * h as f32) as usize).min(h - 1);
+        self.dist.density(uv) / (2.0 * PI * h as f32 * self.rows[r].omega)
     }
 }
 
