@@ -333,7 +333,7 @@ mod preview {
     use aleph::job::{self, FrameDone, JobError, Observer, Refined, RenderJob, Split};
     use std::sync::Mutex;
 
-    /// What the observer saw: (passes, mean spp, denoised, elapsed s) per refinement, and the
+    /// What the observer saw: (number, mean spp, denoised, elapsed s) per refinement, and the
     /// stop reason and mean spp of the frame.
     #[derive(Default)]
     struct Seen {
@@ -346,7 +346,7 @@ mod preview {
             // The PNG is whole at every refinement: it decodes, at the render's size.
             let png = image::open(r.path).unwrap_or_else(|e| panic!("{}: {e}", r.path.display()));
             assert_eq!((png.width(), png.height()), (256, 192));
-            let row = (r.passes, r.mean_spp, r.denoised, r.elapsed.as_secs_f64());
+            let row = (r.number, r.mean_spp, r.denoised, r.elapsed.as_secs_f64());
             self.refinements.lock().unwrap().push(row);
         }
         fn frame_done(&self, d: &FrameDone<'_>) {
@@ -367,9 +367,10 @@ mod preview {
     }
 
     /// Runs a preview of `job` into a new directory; returns what the observer saw and checks
-    /// what every preview must do: a whole PNG at each refinement, the first from the first
-    /// pass at the preview's 2 spp, each later one with more samples, the last as many as the
-    /// delivered frame, denoised when the build can, and the render's PNG and EXR at the end.
+    /// what every preview must do: a whole PNG at each refinement, the first at 1 spp, the
+    /// second when the first pass is whole at the preview's 2 spp, each later one with more
+    /// samples, the last as many as the delivered frame, denoised when the build can, and the
+    /// render's PNG and EXR at the end.
     fn preview(mut job: RenderJob) -> (Vec<(usize, f64, bool, f64)>, StopReason) {
         let dir = tempdir();
         job.output.stem = Some(dir.path().join("p"));
@@ -380,7 +381,8 @@ mod preview {
         let (stop, spp) = done.expect("the frame was reported");
         assert_eq!(rows[0].0, 1);
         let first = job::PREVIEW_MIN_SPP as f64;
-        assert!((rows[0].1 - first).abs() < 1e-9, "{rows:?}");
+        assert!((rows[0].1 - 1.0).abs() < 1e-9, "{rows:?}");
+        assert!((rows[1].1 - first).abs() < 1e-9, "{rows:?}");
         for w in rows.windows(2) {
             let next = w[1].0 == w[0].0 + 1 && w[1].1 > w[0].1 && w[1].3 >= w[0].3;
             assert!(next, "{rows:?}");

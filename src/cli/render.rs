@@ -533,7 +533,7 @@ impl Observer for CliObserver {
         self.multi.suspend(|| {
             eprintln!(
                 "preview {}: {:.1} spp mean, {what}, at {:.2} s -> {}",
-                r.passes,
+                r.number,
                 r.mean_spp,
                 r.elapsed.as_secs_f64(),
                 r.path.display()

@@ -627,7 +627,7 @@ impl LoopState {
             streams,
             sample_progress,
         );
-        self.unreported_render = pass.wall;
+        self.unreported_render += pass.wall;
         self.stats += pass;
         pass
     }
@@ -648,7 +648,7 @@ impl LoopState {
             pass,
             sample_progress,
         );
-        self.unreported_render = stats.wall;
+        self.unreported_render += stats.wall;
         self.stats += stats;
         samples
     }
@@ -748,8 +748,10 @@ pub fn render_adaptive(
 
 /// The image after a pass of the adaptive loop, for a progressive preview.
 pub struct Refinement<'a> {
-    /// Passes rendered so far (1 after the first).
-    pub passes: usize,
+    /// The refinement's number, 1 for the first image. A preview's first pass of
+    /// [`AdaptiveSettings::min_spp`] samples per pixel is shown twice: after its first sample
+    /// and when it is whole; each later pass is shown once.
+    pub number: usize,
     /// The sample buffers.
     pub film: &'a Film,
     /// The film's mean denoised (interleaved RGB, W·sr⁻¹·m⁻²), when the loop denoises
@@ -807,6 +809,7 @@ fn render_with_hooks(
         first_aux,
         last: RefCell::new(None),
         denoise_time: Cell::new(Duration::ZERO),
+        shown: Cell::new(0),
     };
     // The loop's wall time includes the refinements' denoising (and a preview's full
     // auxiliaries); the auxiliary images made before it and the final denoising are added.
@@ -843,6 +846,8 @@ struct Hooks<'a> {
     last: RefCell<Option<Vec<f32>>>,
     /// Wall time spent denoising: the auxiliary images and the refinements.
     denoise_time: Cell<Duration>,
+    /// Refinements shown so far.
+    shown: Cell<usize>,
 }
 
 impl Hooks<'_> {
@@ -868,13 +873,14 @@ impl Hooks<'_> {
         self.aux.take().expect("the loop denoises")
     }
 
-    /// Shows the film after pass `passes` to the refinement callback, if any, denoised first
-    /// (by the fast model) when the loop denoises; a preview's first image with its quick
-    /// auxiliaries, after which the full ones are made.
-    fn refined(&self, passes: usize, film: &Film) -> Result<(), AdaptiveError> {
+    /// Shows the film to the refinement callback, if any, denoised first (by the fast model)
+    /// when the loop denoises; a preview's first image with its quick auxiliaries, after
+    /// which the full ones are made.
+    fn refined(&self, film: &Film) -> Result<(), AdaptiveError> {
         let Some(refined) = self.refined else {
             return Ok(());
         };
+        self.shown.set(self.shown.get() + 1);
         if let Some(aux) = self.aux.get().or(self.first_aux.as_ref()) {
             let t = Instant::now();
             let (w, h) = (film.width as usize, film.height as usize);
@@ -891,7 +897,7 @@ impl Hooks<'_> {
         {
             let last = self.last.borrow();
             refined(&Refinement {
-                passes,
+                number: self.shown.get(),
                 film,
                 denoised: last.as_deref(),
             });
@@ -902,6 +908,41 @@ impl Hooks<'_> {
 }
 
 /// [`render_adaptive`] without the G-buffer and the final denoising.
+/// Renders the loop's first pass, `min_spp` samples in every pixel, and shows it. A preview
+/// (a refinement callback) is shown the pixels' first samples before the rest of the pass:
+/// the film is the same, as a pixel's later samples continue its sequences
+/// ([`crate::render::render_counts`]), and the first image comes in about half the time.
+fn render_first_pass(
+    st: &mut LoopState,
+    scene: &Scene,
+    integrator: &Integrator,
+    min_spp: u32,
+    streams: SampleStreams,
+    hooks: &Hooks,
+) -> Result<(), AdaptiveError> {
+    let n = st.film.len();
+    let mut first = min_spp;
+    if hooks.refined.is_some() && min_spp > 1 {
+        st.render(
+            scene,
+            integrator,
+            &vec![1; n],
+            streams,
+            hooks.sample_progress,
+        );
+        hooks.refined(&st.film)?;
+        first -= 1;
+    }
+    st.render(
+        scene,
+        integrator,
+        &vec![first; n],
+        streams,
+        hooks.sample_progress,
+    );
+    hooks.refined(&st.film)
+}
+
 fn adaptive_loop(
     scene: &Scene,
     s: &AdaptiveSettings,
@@ -919,7 +960,7 @@ fn adaptive_loop(
         // The uniform sampler, or a budget too small to steer: one uniform pass of the whole
         // budget over the rows this render owns.
         let mut r = render_uniform_budget(scene, s, st, progress, sample_progress, start);
-        hooks.refined(1, &r.film)?;
+        hooks.refined(&r.film)?;
         r.velocity = velocity;
         return Ok(r);
     }
@@ -930,9 +971,7 @@ fn adaptive_loop(
         Some(b) => s.min_spp.min((b / n_px as u64).max(1) as u32),
         None => s.min_spp,
     };
-    let first = vec![min_spp; st.film.len()];
-    st.render(scene, &integrator, &first, s.streams(), sample_progress);
-    hooks.refined(1, &st.film)?;
+    render_first_pass(&mut st, scene, &integrator, min_spp, s.streams(), hooks)?;
     if budget_total.is_some_and(|b| st.region_samples() as f64 >= b as f64 - 0.002 * n_px as f64) {
         return Ok(unjudged(st, s, progress, velocity, start));
     }
@@ -991,7 +1030,7 @@ fn adaptive_loop(
             sample_progress,
         );
         rate = pass.samples as f64 / pass.wall.as_secs_f64().max(1e-9);
-        hooks.refined(st.passes.len() + 1, &st.film)?;
+        hooks.refined(&st.film)?;
     };
     let mut r = st.finish(s, stop, Some(judgement), velocity, start);
     r.guide_stats = criterion.guide_stats();

@@ -193,7 +193,7 @@ fn preview(
         }
         match write_refinement(scene, r, look, &png) {
             Ok(()) => observer.refined(&Refined {
-                passes: r.passes,
+                number: r.number,
                 mean_spp: r.film.total_samples() as f64 / r.film.len() as f64,
                 denoised: r.denoised.is_some(),
                 path: &png,

@@ -29,8 +29,9 @@ pub trait Observer: Sync {
 
 /// One refinement of a preview, as [`Observer::refined`] sees it.
 pub struct Refined<'a> {
-    /// Passes rendered so far (1 after the first).
-    pub passes: usize,
+    /// The refinement's number, 1 for the first image ([`crate::adaptive::Refinement::number`]:
+    /// the first image shows each pixel's first sample).
+    pub number: usize,
     /// Mean samples per pixel of the image.
     pub mean_spp: f64,
     /// Whether it was denoised.
