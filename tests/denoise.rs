@@ -219,10 +219,11 @@ mod with_oidn {
         // pixel blocks of the 64² Cornell box. It must rank the blocks like the truth, better
         // with its bias term than without, and be of the truth's size; so must the half-buffer
         // part the loop steers by, whose halves are denoised by the fast model. (Measured
-        // 2026-11-26: 0.625, 0.487 without the bias term, 0.554 for the loop's fast-model
-        // difference, 0.589 for the raw half-buffer difference, which measures the noise the
-        // denoiser removes rather than what it leaves; sizes 1.22×, 0.93× and 1.20× the truth.
-        // All rank bright blocks first, as the true error does.)
+        // 2026-11-26, the high model with `cleanAux`: 0.638, 0.610 without the bias term, 0.620
+        // for the loop's fast-model difference, 0.555 for the raw half-buffer difference, which
+        // measures the noise the denoiser removes rather than what it leaves; sizes 1.20×,
+        // 0.97× and 1.25× the truth. Before `cleanAux` reached OIDN: 0.625, 0.487, 0.554,
+        // 0.589. All rank bright blocks first, as the true error does.)
         let mut job = aleph::job::RenderJob::new(repo("scenes/cornell-box/scene.toml"));
         job.scene.resolution = Some([64, 64]);
         let scene = job.load_scene().unwrap();
