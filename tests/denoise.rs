@@ -169,9 +169,13 @@ mod with_oidn {
             normal: interleaved(&denoised, "Denoising Normal.", ["X", "Y", "Z"]),
         };
         let shown = interleaved(&denoised, "", ["R", "G", "B"]);
-        // The process's one device, used twice, gives what a fresh process gave (the CLI's).
+        // The process's one device, used twice, gives what a fresh process gave (the CLI's,
+        // which picked the model for 4 spp against 16-spp auxiliaries: the large one).
+        use aleph::denoise::{AUX_SPP, Quality, denoise_with};
+        let model = Quality::final_for(4.0, AUX_SPP);
+        assert_eq!(model, Quality::HighCleanAux);
         for _ in 0..2 {
-            let again = aleph::denoise::denoise(&noisy, 64, 64, &aux).unwrap();
+            let again = denoise_with(&noisy, 64, 64, &aux, model).unwrap();
             assert!(
                 again
                     .iter()
@@ -179,8 +183,11 @@ mod with_oidn {
                     .all(|(a, b)| a.to_bits() == b.to_bits())
             );
         }
+        // OIDN hears `cleanAux`: without it the high model gives another image (the `oidn`
+        // crate's own setting of it never reached OIDN, and the two were the same bits).
+        let noisy_aux = denoise_with(&noisy, 64, 64, &aux, Quality::High).unwrap();
+        assert!(noisy_aux.iter().zip(&shown).any(|(a, b)| a != b));
         // The fast model (the preview's refinements) takes most of the noise away too.
-        use aleph::denoise::{Quality, denoise_with};
         let fast = denoise_with(&noisy, 64, 64, &aux, Quality::Fast).unwrap();
         assert!(fast.iter().all(|v| v.is_finite() && *v >= 0.0));
         let refl = interleaved(&reference, "", ["R", "G", "B"]);
@@ -219,11 +226,11 @@ mod with_oidn {
         // pixel blocks of the 64² Cornell box. It must rank the blocks like the truth, better
         // with its bias term than without, and be of the truth's size; so must the half-buffer
         // part the loop steers by, whose halves are denoised by the fast model. (Measured
-        // 2026-11-26, the high model with `cleanAux`: 0.638, 0.610 without the bias term, 0.620
-        // for the loop's fast-model difference, 0.555 for the raw half-buffer difference, which
-        // measures the noise the denoiser removes rather than what it leaves; sizes 1.20×,
-        // 0.97× and 1.25× the truth. Before `cleanAux` reached OIDN: 0.625, 0.487, 0.554,
-        // 0.589. All rank bright blocks first, as the true error does.)
+        // 2026-11-26: 0.625, 0.487 without the bias term, 0.554 for the loop's fast-model
+        // difference, 0.589 for the raw half-buffer difference, which measures the noise the
+        // denoiser removes rather than what it leaves; sizes 1.22×, 0.93× and 1.20× the truth.
+        // All rank bright blocks first, as the true error does. Against the truth denoised by
+        // the large model with `cleanAux`: 0.638, 0.610, 0.620, 0.555.)
         let mut job = aleph::job::RenderJob::new(repo("scenes/cornell-box/scene.toml"));
         job.scene.resolution = Some([64, 64]);
         let scene = job.load_scene().unwrap();

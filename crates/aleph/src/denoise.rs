@@ -35,18 +35,42 @@ pub const PREVIEW_FIRST_AUX_SPP: u32 = 2;
 /// Seed offset of the auxiliary images, independent of the render's samples.
 const AUX_SEED_XOR: u64 = 0xA0C5_11AE;
 
-/// OIDN's filter quality ("quality" of the RT filter, OIDN 2 documentation).
+/// OIDN's filter quality ("quality" of the RT filter, OIDN 2 documentation) and whether it is
+/// told the auxiliary images are clean (`cleanAux`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Quality {
-    /// For final images: OIDN's large model for clean auxiliary images ("high" quality with
-    /// `cleanAux`), about 0.8 s for 512² on 2 cores (0.33 s without `cleanAux`, the model
-    /// aleph ran before 2026-11-26, when its binding's setting never reached OIDN).
+    /// OIDN's high-quality model, the auxiliary images taken as possibly noisy: 0.33 s for
+    /// 512² on 2 cores. For an image of more samples per pixel than its auxiliary images
+    /// ([`Quality::final_for`]).
     #[default]
     High,
+    /// OIDN's large model for clean auxiliary images (high quality with `cleanAux`), about
+    /// 0.8 s for 512² on 2 cores: for an image of no more samples per pixel than its auxiliary
+    /// images ([`Quality::final_for`]).
+    HighCleanAux,
     /// The smaller, faster model OIDN offers for interactive previews (`cleanAux` off, where
     /// it denoised better): 512² on 2 cores in 0.18 s (OIDN 2.5.1's CPU device; its
     /// "balanced" mode runs the high model without `cleanAux` there).
     Fast,
+}
+
+impl Quality {
+    /// The model for a final image of `spp` samples per pixel (mean; fresh and reused) with
+    /// auxiliary images of `aux_spp`: [`Quality::HighCleanAux`] where the auxiliaries have at
+    /// least the image's samples, as OIDN's `cleanAux` asks (auxiliaries without noise
+    /// relative to the colour), else [`Quality::High`]. Measured against 4096-spp references
+    /// (uniform, 256², 16-spp auxiliaries, docs/denoise.md): with `cleanAux` ColorVideoVDP JOD
+    /// rose on the Cornell box, Mori knob, Lost Empire and holodeck at 1–16 spp, and FLIP
+    /// mean fell on all four at 1–8; from 16 spp the holodeck's FLIP mean rose (at 32: 0.0742
+    /// against 0.0674; at its stop, 699 spp, 0.0439 against 0.0328), the large model keeping
+    /// the 16-spp auxiliaries' sub-pixel detail as texture.
+    pub fn final_for(spp: f64, aux_spp: u32) -> Quality {
+        if spp <= aux_spp as f64 {
+            Quality::HighCleanAux
+        } else {
+            Quality::High
+        }
+    }
 }
 
 /// Why an image could not be denoised.
@@ -197,7 +221,7 @@ fn run_oidn(
         (c"albedo", &aux.albedo[..]),
         (c"normal", &aux.normal[..]),
     ];
-    let clean = quality == Quality::High;
+    let clean = quality == Quality::HighCleanAux;
     if let Err(e) = dev.denoise(&inputs, &mut out, (width, height), quality, clean) {
         // A device that failed is not trusted with the next image.
         *device = None;
@@ -211,13 +235,8 @@ fn run_oidn(
 /// does not know (it warns "unknown filter parameter" and keeps `cleanAux` false); the filter
 /// here is set up as the OIDN 2 API documents it, with the images shared, not copied.
 ///
-/// `cleanAux` is set for the high-quality model only, where OIDN then runs its large model for
-/// clean auxiliary images. Measured against 4096-spp references (uniform renders at 1–64 spp,
-/// 256², `benches/denoise_judge.py`, docs/denoise.md): ColorVideoVDP JOD higher on the Cornell
-/// box, Mori knob, Lost Empire and holodeck at every budget but the box's 32 spp (−0.02), FLIP
-/// mean lower on the first three at every budget and higher on the holodeck from 16 spp, for
-/// 2.4× the filter's time. The fast model with `cleanAux` lost by FLIP mean at 8 and 32 spp on
-/// all four scenes, so a preview's refinements keep it off.
+/// `cleanAux` is set for [`Quality::HighCleanAux`] only, where OIDN then runs its large model
+/// for clean auxiliary images ([`Quality::final_for`] tells when).
 #[cfg(feature = "denoise")]
 mod ffi {
     use super::Quality;
@@ -301,7 +320,7 @@ mod ffi {
                 "input size"
             );
             let quality = match quality {
-                Quality::High => sys::OIDNQuality_OIDN_QUALITY_HIGH,
+                Quality::High | Quality::HighCleanAux => sys::OIDNQuality_OIDN_QUALITY_HIGH,
                 Quality::Fast => sys::OIDNQuality_OIDN_QUALITY_FAST,
             };
             // SAFETY: every image holds w × h packed FLOAT3 pixels (asserted) and is borrowed
@@ -352,18 +371,19 @@ pub struct Denoised {
     pub aux: Aux,
 }
 
-/// Denoises `noisy`, the radiance of a render of `scene` (its current frame), with auxiliary
-/// images rendered at [`AUX_SPP`] samples per pixel from the scene's seed.
+/// Denoises `noisy`, the radiance of a render of `scene` (its current frame) of `spp` samples
+/// per pixel (mean, fresh and reused), with auxiliary images rendered at [`AUX_SPP`] samples
+/// per pixel from the scene's seed, by the model [`Quality::final_for`] picks.
 ///
 /// # Errors
 /// As [`denoise`].
-pub fn denoise_render(scene: &Scene, noisy: Vec<f32>) -> Result<Denoised, DenoiseError> {
+pub fn denoise_render(scene: &Scene, noisy: Vec<f32>, spp: f64) -> Result<Denoised, DenoiseError> {
     if !AVAILABLE {
         return Err(DenoiseError::NotBuilt);
     }
     let aux = render_aux(scene, AUX_SPP, scene.settings.seed);
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    let rgb = denoise(&noisy, w, h, &aux)?;
+    let rgb = denoise_with(&noisy, w, h, &aux, Quality::final_for(spp, AUX_SPP))?;
     Ok(Denoised { rgb, noisy, aux })
 }
 
