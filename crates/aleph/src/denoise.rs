@@ -25,8 +25,9 @@ pub const HOW_TO_BUILD: &str = "this aleph was built without denoising; build it
 /// Samples per pixel of the auxiliary images (their edges are antialiased like the render's).
 pub const AUX_SPP: u32 = 16;
 
-/// Samples per pixel of the auxiliary images a preview's first image (1 spp) is denoised
-/// with; the full ones ([`AUX_SPP`]) are made right after it. On the holodeck at 512² (2
+/// Samples per pixel of the auxiliary images a preview's first images (its first pass, shown
+/// at 1 spp and whole) are denoised with; the full ones ([`AUX_SPP`]) are made for the loop's
+/// first judgement. On the holodeck at 512² (2
 /// cores) 4-spp ones took 0.15 s of the 0.9–1.0 s before the first image; with 2 spp it came
 /// at 0.78–0.87 s, its FLIP mean against a 512-spp reference 0.138 (4 spp: 0.132, 16: 0.126,
 /// 1: 0.147).

@@ -786,8 +786,9 @@ fn render_with_hooks(
     s.validate()?;
     let t_aux = Instant::now();
     let seed = scene.settings.seed;
-    // A preview shows its first image with auxiliaries of fewer samples and makes the full
-    // ones right after it (`Hooks::refined`); a render makes them first.
+    // A preview shows its first images (the first pass, twice) with auxiliaries of fewer
+    // samples and makes the full ones for its first judgement (`Hooks::aux`); a render makes
+    // them first.
     let preview = refined.is_some();
     let first_aux = (s.denoise && preview)
         .then(|| crate::denoise::render_aux(scene, crate::denoise::PREVIEW_FIRST_AUX_SPP, seed));
@@ -839,7 +840,7 @@ struct Hooks<'a> {
     refined: Option<&'a (dyn Fn(&Refinement) + Sync)>,
     scene: &'a Scene,
     /// The denoiser's auxiliary images at [`crate::denoise::AUX_SPP`], when the loop
-    /// denoises: made before the loop, or for a preview after its first image.
+    /// denoises: made before the loop, or for a preview at its first judgement.
     aux: OnceCell<Aux>,
     /// A preview's auxiliary images for its first image, at
     /// [`crate::denoise::PREVIEW_FIRST_AUX_SPP`].
@@ -876,8 +877,9 @@ impl Hooks<'_> {
     }
 
     /// Shows the film to the refinement callback, if any, denoised first (by the fast model)
-    /// when the loop denoises; a preview's first image with its quick auxiliaries, after
-    /// which the full ones are made.
+    /// when the loop denoises: with a preview's quick auxiliaries until the full ones are
+    /// made, for the loop's first judgement (so the first pass is shown twice with the quick
+    /// ones).
     fn refined(&self, film: &Film) -> Result<(), AdaptiveError> {
         let Some(refined) = self.refined else {
             return Ok(());
@@ -904,7 +906,6 @@ impl Hooks<'_> {
                 denoised: last.as_deref(),
             });
         }
-        self.aux();
         Ok(())
     }
 }
