@@ -27,10 +27,9 @@ pub const AUX_SPP: u32 = 16;
 
 /// Samples per pixel of the auxiliary images a preview's first images (its first pass, shown
 /// at 1 spp and whole) are denoised with; the full ones ([`AUX_SPP`]) are made for the loop's
-/// first judgement. On the holodeck at 512² (2
-/// cores) 4-spp ones took 0.15 s of the 0.9–1.0 s before the first image; with 2 spp it came
-/// at 0.78–0.87 s, its FLIP mean against a 512-spp reference 0.138 (4 spp: 0.132, 16: 0.126,
-/// 1: 0.147).
+/// first judgement. On the holodeck at 512² (2 cores) 4-spp ones took 0.15 s of the 0.9–1.0 s
+/// before the first image; with 2 spp it came at 0.78–0.87 s, its FLIP mean against a 512-spp
+/// reference 0.138 (4 spp: 0.132, 16: 0.126, 1: 0.147).
 pub const PREVIEW_FIRST_AUX_SPP: u32 = 2;
 
 /// Seed offset of the auxiliary images, independent of the render's samples.
@@ -184,7 +183,7 @@ pub fn denoise_with(
             aux.normal.len()
         )));
     }
-    let mut out = run_oidn(rgb, width, height, aux, quality)?;
+    let mut out = run_oidn(rgb, (width, height), aux, quality)?;
     for ((o, i), n) in out
         .chunks_exact_mut(3)
         .zip(rgb.chunks_exact(3))
@@ -206,8 +205,7 @@ static DEVICE: std::sync::Mutex<Option<ffi::Device>> = std::sync::Mutex::new(Non
 #[cfg(feature = "denoise")]
 fn run_oidn(
     rgb: &[f32],
-    width: usize,
-    height: usize,
+    size: (usize, usize),
     aux: &Aux,
     quality: Quality,
 ) -> Result<Vec<f32>, DenoiseError> {
@@ -217,13 +215,7 @@ fn run_oidn(
     }
     let dev = device.as_ref().expect("made above");
     let mut out = vec![0f32; rgb.len()];
-    let inputs = [
-        (c"color", rgb),
-        (c"albedo", &aux.albedo[..]),
-        (c"normal", &aux.normal[..]),
-    ];
-    let clean = quality == Quality::HighCleanAux;
-    if let Err(e) = dev.denoise(&inputs, &mut out, (width, height), quality, clean) {
+    if let Err(e) = dev.denoise(rgb, aux, &mut out, size, quality) {
         // A device that failed is not trusted with the next image.
         *device = None;
         return Err(DenoiseError::Oidn(e));
@@ -240,7 +232,7 @@ fn run_oidn(
 /// for clean auxiliary images ([`Quality::final_for`] tells when).
 #[cfg(feature = "denoise")]
 mod ffi {
-    use super::Quality;
+    use super::{Aux, Quality};
     use oidn::sys;
     use std::ffi::{CStr, c_char};
 
@@ -302,24 +294,23 @@ mod ffi {
             Err(format!("Open Image Denoise error {code}: {text}"))
         }
 
-        /// Runs the RT filter on `inputs` (named images: `color`, `albedo`, `normal`; packed
-        /// FLOAT3, `w × h`, colour HDR) into `out`.
+        /// Runs the RT filter on `rgb` (HDR) with `aux` into `out`, all interleaved RGB of
+        /// `w × h` pixels; `cleanAux` set for [`Quality::HighCleanAux`].
         ///
         /// # Panics
         /// If an image or `out` does not hold 3 · w · h values.
         pub(super) fn denoise(
             &self,
-            inputs: &[(&CStr, &[f32])],
+            rgb: &[f32],
+            aux: &Aux,
             out: &mut [f32],
             (w, h): (usize, usize),
             quality: Quality,
-            clean_aux: bool,
         ) -> Result<(), String> {
-            assert_eq!(out.len(), 3 * w * h, "output size");
-            assert!(
-                inputs.iter().all(|(_, d)| d.len() == 3 * w * h),
-                "input size"
-            );
+            let n = 3 * w * h;
+            assert!(rgb.len() == n && aux.albedo.len() == n && aux.normal.len() == n);
+            assert_eq!(out.len(), n, "output size");
+            let clean_aux = quality == Quality::HighCleanAux;
             let quality = match quality {
                 Quality::High | Quality::HighCleanAux => sys::OIDNQuality_OIDN_QUALITY_HIGH,
                 Quality::Fast => sys::OIDNQuality_OIDN_QUALITY_FAST,
@@ -339,9 +330,9 @@ mod ffi {
                     let p = data as *mut std::ffi::c_void;
                     sys::oidnSetSharedFilterImage(f.0, name.as_ptr(), p, format, w, h, 0, 0, 0)
                 };
-                for (name, data) in inputs {
-                    image(name, data.as_ptr());
-                }
+                image(c"color", rgb.as_ptr());
+                image(c"albedo", aux.albedo.as_ptr());
+                image(c"normal", aux.normal.as_ptr());
                 image(c"output", out.as_mut_ptr());
                 sys::oidnSetFilterBool(f.0, c"hdr".as_ptr(), true);
                 sys::oidnSetFilterBool(f.0, c"cleanAux".as_ptr(), clean_aux);
@@ -356,7 +347,7 @@ mod ffi {
 }
 
 #[cfg(not(feature = "denoise"))]
-fn run_oidn(_: &[f32], _: usize, _: usize, _: &Aux, _: Quality) -> Result<Vec<f32>, DenoiseError> {
+fn run_oidn(_: &[f32], _: (usize, usize), _: &Aux, _: Quality) -> Result<Vec<f32>, DenoiseError> {
     Err(DenoiseError::NotBuilt)
 }
 

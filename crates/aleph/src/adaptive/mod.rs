@@ -822,8 +822,7 @@ fn render_with_hooks(
         let noisy = r.film.mean_rgb();
         // The refinements were denoised by the fast model; the result by the high one.
         let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-        let spp = r.film.total_samples() as f64 / r.film.len().max(1) as f64;
-        let quality = crate::denoise::Quality::final_for(spp, crate::denoise::AUX_SPP);
+        let quality = crate::denoise::Quality::final_for(r.mean_spp(), crate::denoise::AUX_SPP);
         let rgb = crate::denoise::denoise_with(&noisy, w, h, &aux, quality)?;
         r.denoise_time += t.elapsed();
         r.wall += aux_time + t.elapsed();

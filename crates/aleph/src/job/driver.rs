@@ -279,10 +279,13 @@ impl Frame<'_> {
         let t = std::time::Instant::now();
         let late = match (&result.denoised, job.denoises()) {
             (None, true) => {
-                let f = &result.film;
                 let reused = result.reuse.as_ref().map_or(0.0, |r| r.mean_history_spp);
-                let spp = f.total_samples() as f64 / f.len().max(1) as f64 + reused;
-                Some(crate::denoise::denoise_render(scene, f.mean_rgb(), spp)?)
+                let spp = result.mean_spp() + reused;
+                Some(crate::denoise::denoise_render(
+                    scene,
+                    result.film.mean_rgb(),
+                    spp,
+                )?)
             }
             _ => None,
         };
