@@ -60,6 +60,13 @@
 //! (`aleph::film::HalfSplit::Blocks`, issue 36); the uniform, variance and reuse cases and
 //! the sample parts kept their hashes.
 //!
+//! The Mori knob's four cases were re-recorded when Reinhard's white stopped being set by a
+//! lone pixel more than twice as bright as every neighbour
+//! (`perception::tmo::reinhard02::white_luminance`): at 40 × 30 and 6 spp its brightest pixel,
+//! 5.39, sits beside 2.45, so its white is now 4.90; its PNGs change and so do the adaptive
+//! rules' samples, which measure noise through that curve. Every other case kept its pixels
+//! (their brightest pixels have a neighbour at least half as bright).
+//!
 //! Layers added since are not hashed, so that the table keeps guarding the pixels it guarded:
 //! the G-buffer (`Depth.Z`, `Normal.X/Y/Z`, `IndexOB`) and `History.spp` of reuse across
 //! frames; the sequence cases render independent frames (`--reuse-window 0`), as every
@@ -381,10 +388,10 @@ pub const GOLDEN: &[(&str, u64)] = &[
         "scenes/lost-empire/scene.toml converged",
         0x11b3a51d9cb7fff8,
     ),
-    ("scenes/mori-knob/scene.toml uniform", 0xba2082a480327f7f),
-    ("scenes/mori-knob/scene.toml perceptual", 0x4bbf4adb3a6d9793),
-    ("scenes/mori-knob/scene.toml variance", 0x40ab944a1c9eb486),
-    ("scenes/mori-knob/scene.toml converged", 0x35ead349ae8dff95),
+    ("scenes/mori-knob/scene.toml uniform", 0x816b094505e821a5),
+    ("scenes/mori-knob/scene.toml perceptual", 0x7980681dbb32fbdc),
+    ("scenes/mori-knob/scene.toml variance", 0x2c5691e6f59f058e),
+    ("scenes/mori-knob/scene.toml converged", 0x0ff674ba94b71bdf),
     ("cornell-motion sequence", 0xc62403e02433867f),
     ("holodeck pan sequence", 0x1e107ac151f46e4b),
     ("cornell-motion sequence reusing frames", 0x848ad41fbfa6a508),

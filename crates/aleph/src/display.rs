@@ -123,7 +123,8 @@ impl FrozenToneMap {
             None => perception::adaptation::log_average(&lum) as f64,
         };
         let exposure_scale = exposure.key / adapted.max(1e-9);
-        let reinhard = perception::tmo::reinhard02::Reinhard02::default().parameters(&rgb_cd);
+        let reinhard =
+            perception::tmo::reinhard02::Reinhard02::default().parameters(&rgb_cd, width);
         Ok(FrozenToneMap {
             settings: *s,
             width,
@@ -192,7 +193,7 @@ impl FrozenToneMap {
                 white: Some(self.reinhard.1),
                 log_average: Some(self.reinhard.0),
             }
-            .map(&rgb_cd),
+            .map(&rgb_cd, w),
             Operator::Ptyg if s.adaptation_state.is_some() => {
                 let p = ptyg_display(display);
                 let state = s.adaptation_state.expect("matched");

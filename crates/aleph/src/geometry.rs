@@ -683,6 +683,19 @@ pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
     }
 }
 
+/// Whether the segment from `o` to `o + d` (any length) passes through any of `boxes`
+/// ((min, max) pairs, e.g. [`Geometry::moving_boxes`]; slab test).
+pub fn segment_meets_boxes(boxes: &[(Vec3, Vec3)], o: Vec3, d: Vec3) -> bool {
+    let inv = d.recip();
+    boxes.iter().any(|&(bmin, bmax)| {
+        let t0 = (bmin - o) * inv;
+        let t1 = (bmax - o) * inv;
+        let near = t0.min(t1).max_element().max(0.0);
+        let far = t0.max(t1).min_element().min(1.0);
+        near <= far
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -732,17 +745,4 @@ mod tests {
         t.set_light(3, 7);
         assert_eq!(t.get(3).light, 7);
     }
-}
-
-/// Whether the segment from `o` to `o + d` (any length) passes through any of `boxes`
-/// ((min, max) pairs, e.g. [`Geometry::moving_boxes`]; slab test).
-pub fn segment_meets_boxes(boxes: &[(Vec3, Vec3)], o: Vec3, d: Vec3) -> bool {
-    let inv = d.recip();
-    boxes.iter().any(|&(bmin, bmax)| {
-        let t0 = (bmin - o) * inv;
-        let t1 = (bmax - o) * inv;
-        let near = t0.min(t1).max_element().max(0.0);
-        let far = t0.max(t1).min_element().min(1.0);
-        near <= far
-    })
 }

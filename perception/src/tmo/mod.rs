@@ -179,7 +179,7 @@ pub fn apply(
             }
             p.map(rgb_cd_m2, adaptation_cd_m2)
         }
-        Operator::Reinhard => reinhard02::Reinhard02::default().map(rgb_cd_m2),
+        Operator::Reinhard => reinhard02::Reinhard02::default().map(rgb_cd_m2, width),
     })
 }
 

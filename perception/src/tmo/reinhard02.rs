@@ -8,16 +8,79 @@ use rayon::prelude::*;
 
 /// The global photographic operator: L_m = (a / L̄_w) L_w (eq. 2),
 /// L_d = L_m (1 + L_m / L_white²) / (1 + L_m) (eq. 4), colour scaled by L_d / L_w.
+///
+/// The paper sets L_white to the image's largest L_m. In a Monte Carlo render that maximum is
+/// often one sample: a firefly, a lone pixel thousands of times its neighbours, which at any
+/// spp would set the white of every other pixel (a 256×170 Lost Empire render at 1024 spp drew
+/// 1.5–2 % darker than its 4096-spp reference because of one such pixel). So a pixel counts
+/// toward L_white with at most [`WHITE_NEIGHBOUR_RATIO`] times its brightest neighbour's
+/// luminance ([`white_luminance`]): a firefly is still drawn white, but no longer darkens the
+/// image; where the brightest pixel has a neighbour at least half as bright (a light source,
+/// a highlight, a line of two or more pixels) L_white is the paper's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Reinhard02 {
     /// Key a (default 0.18, "middle grey").
     pub key: f64,
     /// Smallest scaled luminance mapped to white; `None` uses the image's largest L_m, as the
-    /// paper suggests.
+    /// paper suggests, with isolated outliers capped ([`white_luminance`]).
     pub white: Option<f64>,
     /// The log-average luminance L̄_w, cd/m²; `None` computes it from the image (eq. 1). Fixing
     /// it (and `white`) freezes the curve, e.g. to map half-buffer images identically.
     pub log_average: Option<f64>,
+}
+
+/// How many times its brightest neighbour's luminance a pixel may count toward L_white.
+pub const WHITE_NEIGHBOUR_RATIO: f32 = 2.0;
+
+/// The luminance that sets Reinhard's white: the largest of `lum` (row-major, `width` pixels a
+/// row; a last partial row is read as it stands) with each pixel counted as at most
+/// [`WHITE_NEIGHBOUR_RATIO`] times the largest of its up to eight neighbours (a pixel without
+/// neighbours, in a 1 × 1 image, as itself). Non-finite values are skipped; 0 for an empty or
+/// all-dark image.
+///
+/// # Panics
+/// If `width` is 0 and `lum` is not empty.
+pub fn white_luminance(lum: &[f32], width: usize) -> f32 {
+    if lum.is_empty() {
+        return 0.0;
+    }
+    assert!(
+        width > 0,
+        "white_luminance: width 0 for {} pixels",
+        lum.len()
+    );
+    let height = lum.len().div_ceil(width);
+    let at = |x: usize, y: usize| {
+        let v = lum.get(y * width + x).copied().unwrap_or(0.0);
+        if v.is_finite() { v.max(0.0) } else { 0.0 }
+    };
+    (0..height)
+        .into_par_iter()
+        .map(|y| {
+            let mut m = 0f32;
+            for x in 0..width.min(lum.len() - y * width) {
+                let v = at(x, y);
+                if v <= m {
+                    continue;
+                }
+                let mut near = f32::NEG_INFINITY;
+                for ny in y.saturating_sub(1)..(y + 2).min(height) {
+                    for nx in x.saturating_sub(1)..(x + 2).min(width) {
+                        if (nx, ny) != (x, y) {
+                            near = near.max(at(nx, ny));
+                        }
+                    }
+                }
+                let capped = if near == f32::NEG_INFINITY {
+                    v
+                } else {
+                    v.min(WHITE_NEIGHBOUR_RATIO * near)
+                };
+                m = m.max(capped);
+            }
+            m
+        })
+        .reduce(|| 0f32, f32::max)
 }
 
 impl Default for Reinhard02 {
@@ -31,8 +94,9 @@ impl Default for Reinhard02 {
 }
 
 impl Reinhard02 {
-    /// The curve's parameters for an image: (L̄_w, L_white in scaled units).
-    pub fn parameters(&self, rgb_cd_m2: &[f32]) -> (f64, f64) {
+    /// The curve's parameters for an image (`rgb_cd_m2` interleaved RGB in cd/m², `width`
+    /// pixels a row): (L̄_w, L_white in scaled units).
+    pub fn parameters(&self, rgb_cd_m2: &[f32], width: usize) -> (f64, f64) {
         if let (Some(lbar), Some(white)) = (self.log_average, self.white) {
             // Frozen: nothing to read from the image.
             return (lbar.max(1e-9), white);
@@ -45,13 +109,13 @@ impl Reinhard02 {
             .log_average
             .unwrap_or_else(|| log_average(&lum) as f64)
             .max(1e-9);
-        let lmax = lum.iter().fold(0f32, |a, &b| a.max(b)) as f64 * self.key / lbar;
+        let lmax = white_luminance(&lum, width) as f64 * self.key / lbar;
         (lbar, self.white.unwrap_or(lmax))
     }
 
-    /// Maps linear RGB (cd/m²) to display values in [0, 1].
-    pub fn map(&self, rgb_cd_m2: &[f32]) -> Vec<f32> {
-        let (lbar, white) = self.parameters(rgb_cd_m2);
+    /// Maps linear RGB (cd/m², interleaved, `width` pixels a row) to display values in [0, 1].
+    pub fn map(&self, rgb_cd_m2: &[f32], width: usize) -> Vec<f32> {
+        let (lbar, white) = self.parameters(rgb_cd_m2, width);
         let scale = self.key / lbar;
         let white2 = white.max(1e-9).powi(2);
         let mut out = vec![0f32; rgb_cd_m2.len() - rgb_cd_m2.len() % 3];

@@ -92,9 +92,72 @@ fn reinhard_follows_equation_4() {
     // Two pixels of grey 1 and 100 cd/m²: log average 10 (ignoring δ), L_m = 0.018 and 1.8,
     // L_white = 1.8: L_d(1.8) = 1.8 (1 + 1.8/3.24)/2.8 = 1.0, L_d(0.018) = 0.018 (1 +
     // 0.018/3.24)/1.018 = 0.017780.
-    let out = reinhard02::Reinhard02::default().map(&[1.0, 1.0, 1.0, 100.0, 100.0, 100.0]);
-    assert!((out[0] - 0.017780).abs() < 2e-5, "{}", out[0]);
-    assert!((out[3] - 1.0).abs() < 1e-4, "{}", out[3]);
+    // Two rows of the two pixels: each bright pixel has a bright neighbour, so L_white is the
+    // paper's largest L_m.
+    let img = [1.0, 1.0, 1.0, 100.0, 100.0, 100.0];
+    let out = reinhard02::Reinhard02::default().map(&[img, img].concat(), 2);
+    for row in [0, 6] {
+        assert!((out[row] - 0.017780).abs() < 2e-5, "{}", out[row]);
+        assert!((out[row + 3] - 1.0).abs() < 1e-4, "{}", out[row + 3]);
+    }
+}
+
+/// A field of grey with a bright 3 × 3 light and values around it, as an HDR render holds them.
+fn lit_field(w: usize, h: usize) -> Vec<f32> {
+    let mut lum = vec![0f32; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            lum[y * w + x] = 5.0 + 40.0 * ((x * 7 + y * 13) % 17) as f32 / 17.0;
+        }
+    }
+    for y in 3..6 {
+        for x in 10..13 {
+            lum[y * w + x] = 2000.0;
+        }
+    }
+    lum
+}
+
+#[test]
+fn reinhard_white_ignores_a_lone_firefly_and_keeps_the_papers_maximum_otherwise() {
+    let (w, h) = (24, 16);
+    let lum = lit_field(w, h);
+    // The light's pixels have neighbours as bright: the paper's maximum.
+    assert_eq!(reinhard02::white_luminance(&lum, w), 2000.0);
+    let grey = |l: &[f32]| l.iter().flat_map(|&v| [v, v, v]).collect::<Vec<f32>>();
+    let op = reinhard02::Reinhard02::default();
+    let clean = op.map(&grey(&lum), w);
+    // One sample of a 1024-spp pixel 10⁵ times the rest: a firefly of about 100 × the light.
+    let mut fly = lum.clone();
+    let f = 12 * w + 4;
+    fly[f] = 2.0e5;
+    assert_eq!(reinhard02::white_luminance(&fly, w), 2000.0);
+    let noisy = op.map(&grey(&fly), w);
+    // The log average moves by the firefly's own term, (ln 2e5 − ln v) / N of a stop's fraction;
+    // every other pixel keeps its display value to within that.
+    let lbar_ratio = (((2.0e5f64).ln() - (lum[f] as f64).ln()) / (w * h) as f64).exp();
+    for (i, (a, b)) in clean.iter().zip(&noisy).enumerate() {
+        if i / 3 != f {
+            assert!(
+                (a - b).abs() <= 1.01 * (lbar_ratio - 1.0) as f32 * a + 1e-6,
+                "pixel {i}: {a} against {b}"
+            );
+        }
+    }
+    assert_eq!(noisy[3 * f], 1.0, "the firefly is drawn white");
+    // Without the cap the firefly would have set white, and the light would no longer be
+    // drawn white (eq. 4 with L_white the firefly's L_m); with it, the light stays white.
+    let lbar = crate::adaptation::log_average(&fly) as f64;
+    let (lm_light, lm_fly) = (2000.0 * 0.18 / lbar, 2.0e5 * 0.18 / lbar);
+    let uncapped = lm_light * (1.0 + lm_light / (lm_fly * lm_fly)) / (1.0 + lm_light);
+    assert!(
+        uncapped < 0.99,
+        "the test's firefly would move the white ({uncapped})"
+    );
+    assert_eq!(noisy[3 * (4 * w + 11)], 1.0, "the light is drawn white");
+    // An edge case: a 1 × 1 image is its own white; an empty one has none.
+    assert_eq!(reinhard02::white_luminance(&[7.0], 1), 7.0);
+    assert_eq!(reinhard02::white_luminance(&[], 3), 0.0);
 }
 
 /// A log-uniform ramp of luminance from 1e-2 to 1e4 cd/m² (six decades, far beyond 32:1).
