@@ -23,15 +23,43 @@
 //! Why: on discontinuous integrands of the unit square (random half-planes and discs, 20 000
 //! point sets a size) Owen-scrambled Sobol' ([`super::sobol`]) has 1.14–1.20× the variance of
 //! this pattern at 16–256 points; a path tracer's error is mostly such edges and penumbrae.
+//!
+//! **Deep dimensions** ([`CMJ_DEEP_DIMENSIONS`]). The first [`CMJ_DIMENSIONS`] dimensions have
+//! patterns of their own (their permutations cost about two random numbers a point at N = 16:
+//! giving every dimension one cost 1.12× the CPU time for 20 dimensions, 1.24× for all).
+//! Past them, a path's later bounces draw from one more pattern, the pixel's *base* pattern:
+//! each deep dimension lays out the base pattern's N points in an order of its own and
+//! rotated by an offset of its own, once per pixel when a sample first uses it, and its
+//! samples read them. Measured on the Cornell box (256², depth 8, seeds 1–8, the 8192-spp
+//! Mitsuba reference of `benches/peer/`), relMSE at 16 / 64 spp: PCG32 past dimension 10
+//! 0.006726 / 0.001332 (± 0.000031 / 0.000007), deep dimensions from the base pattern
+//! 0.006561 / 0.001274 (± 0.000034 / 0.000006), −2.5 % / −4.4 %, level with Mitsuba 3's
+//! `multijitter` (0.00656 / 0.00130), for 1.01–1.04× the CPU time (paired whole processes, 9
+//! and 5 pairs), so the time to equal relMSE is unchanged (0.99–1.01×). Lost Empire (240×150,
+//! its own 1024-spp reference, seeds 1–4): 0.002863 / 0.000564 → 0.002852 / 0.000560 for
+//! 1.015× the CPU time; the holodeck (160²): 0.001245 / 0.000275 → 0.001221 / 0.000272 for
+//! 1.02×. Tried first and dropped: patterns of their own for 20 dimensions (0.006631 /
+//! 0.001296 for 1.05–1.07×), and the base points read through a stored order and rotated per
+//! sample (1.09×). A farm part of a uniform render (`--part`) lays out every deep dimension its
+//! samples use, as the whole render does.
 
 use super::{Padded, PaddedPattern};
 use crate::rng::{Rng, mix64};
 use glam::Vec2;
-use std::cell::OnceCell;
+use std::cell::{Cell, OnceCell, RefCell};
 
-/// Dimensions drawn from the pixel's table (the first bounces of a path); the rest from PCG32,
-/// as [`super::sobol::QMC_DIMENSIONS`].
+/// Dimensions with patterns of their own in the pixel's table (the first bounces of a path),
+/// as many as [`super::sobol::QMC_DIMENSIONS`]; then [`CMJ_DEEP_DIMENSIONS`].
 pub const CMJ_DIMENSIONS: u32 = super::sobol::QMC_DIMENSIONS;
+
+/// Dimensions below this and from [`CMJ_DIMENSIONS`] on (a path's later bounces) are drawn
+/// from the pixel's base pattern, one more correlated multi-jittered pattern of N points,
+/// each dimension visiting its points in an order of its own (padding) and shifted by an
+/// offset of its own modulo 1 (a Cranley–Patterson rotation, which keeps each point in a
+/// stratum of its own on the torus; a single dimension takes the points' first coordinates,
+/// which lie in N strata): stratified like the first dimensions for about what PCG32 costs
+/// (see the module docs, "Deep dimensions"). The rest from PCG32.
+pub const CMJ_DEEP_DIMENSIONS: u32 = 64;
 
 /// One dimension's permutations, drawn when a sample first uses the dimension: the samples'
 /// order over the cells, and where the dimension starts a pair the grid's columns and rows and
@@ -76,7 +104,19 @@ pub struct CmjTable {
     pixel: u64,
     dims: Vec<Dimension>,
     key: (u64, u64),
+    /// The base pattern's N points (its permutations those of dimension slot
+    /// [`CMJ_DIMENSIONS`]), made when a sample first goes past [`CMJ_DIMENSIONS`].
+    base: OnceCell<Vec<Vec2>>,
+    /// The deep dimensions' points, N each from dimension [`CMJ_DIMENSIONS`] on, in one
+    /// buffer sized with the base pattern; bit k of `deep_drawn`: dimension
+    /// [`CMJ_DIMENSIONS`] + k laid out.
+    deep: RefCell<Vec<Vec2>>,
+    deep_drawn: Cell<u64>,
 }
+
+/// Deep dimensions, past the patterns of their own.
+const DEEP: usize = (CMJ_DEEP_DIMENSIONS - CMJ_DIMENSIONS) as usize;
+const _: () = assert!(DEEP <= 64, "one bit a deep dimension");
 
 /// A uniformly random permutation of 0..n (Fisher–Yates, Lemire's multiply-shift for the
 /// index).
@@ -100,7 +140,8 @@ impl CmjTable {
             r,
             seed,
             pixel: pixel_index,
-            dims: (0..CMJ_DIMENSIONS as u64)
+            // The last slot is the base pattern's.
+            dims: (0..=CMJ_DIMENSIONS as u64)
                 .map(|d| Dimension {
                     jitter: mix64(
                         seed ^ mix64(pixel_index ^ d.wrapping_mul(0xA076_1D64_78BD_642F)),
@@ -109,7 +150,74 @@ impl CmjTable {
                 })
                 .collect(),
             key: (seed ^ 0x243F_6A88_85A3_08D3, pixel_index),
+            base: OnceCell::new(),
+            deep: RefCell::new(POOL.with(|p| p.borrow_mut().pop()).unwrap_or_default()),
+            deep_drawn: Cell::new(0),
         }
+    }
+
+    /// The base pattern's points, made (with the deep dimensions' buffer) when first needed.
+    fn base(&self) -> &[Vec2] {
+        self.base.get_or_init(|| {
+            let mut deep = self.deep.borrow_mut();
+            deep.clear();
+            deep.resize(DEEP * self.total as usize, Vec2::ZERO);
+            (0..self.total)
+                .map(|s| self.point(CMJ_DIMENSIONS as usize, s))
+                .collect()
+        })
+    }
+
+    /// Deep dimensions `d`, `d + 1` (`d` ≥ [`CMJ_DIMENSIONS`]) of sample `s`: the base
+    /// pattern's points in the dimension's order, rotated by its offset, laid out when a
+    /// sample first uses the dimension.
+    #[inline]
+    fn deep_pair(&self, d: usize, s: u32) -> Vec2 {
+        let k = d - CMJ_DIMENSIONS as usize;
+        let n = self.total as usize;
+        if self.deep_drawn.get() & (1 << k) == 0 {
+            self.lay_out(d);
+        }
+        self.deep.borrow()[k * n + s as usize]
+    }
+
+    /// Lays out deep dimension `d`: the base points shuffled (Durstenfeld's inside-out
+    /// Fisher–Yates, two 32-bit indices from each SplitMix64 output of the dimension's own
+    /// key) and rotated by the dimension's offset modulo 1.
+    #[cold]
+    fn lay_out(&self, d: usize) {
+        let k = d - CMJ_DIMENSIONS as usize;
+        let n = self.total as usize;
+        let base = self.base();
+        let key = mix64(self.seed ^ 0xBB67_AE85_84CA_A73B ^ mix64(self.pixel ^ (d as u64) << 40));
+        let r = mix64(key);
+        let unit = 1.0 / (1u32 << 24) as f32;
+        let shift = Vec2::new((r >> 40) as f32 * unit, (r & 0xff_ffff) as f32 * unit);
+        let mut deep = self.deep.borrow_mut();
+        let out = &mut deep[k * n..(k + 1) * n];
+        let mut bits = 0u64;
+        for i in 0..n {
+            let u = if i % 2 == 0 {
+                bits = mix64(key ^ (i as u64 + 1));
+                bits as u32
+            } else {
+                (bits >> 32) as u32
+            };
+            let j = ((u as u64 * (i as u64 + 1)) >> 32) as usize;
+            out[i] = out[j];
+            out[j] = base[i];
+        }
+        for p in out.iter_mut() {
+            *p = Vec2::new(rotate(p.x, shift.x), rotate(p.y, shift.y));
+        }
+        self.deep_drawn.set(self.deep_drawn.get() | 1 << k);
+    }
+
+    /// Deep dimension `d` of sample `s`: the first coordinate of its point (the base
+    /// pattern's N first coordinates lie in N strata).
+    #[inline]
+    fn deep_value(&self, d: usize, s: u32) -> f32 {
+        self.deep_pair(d, s).x
     }
 
     /// The PCG32 stream of dimension `d`'s permutations (`part` 0: the order, 1: the strata).
@@ -170,6 +278,36 @@ impl CmjTable {
     }
 }
 
+/// `x + shift` modulo 1, below 1.
+#[inline]
+fn rotate(x: f32, shift: f32) -> f32 {
+    let y = x + shift;
+    (if y >= 1.0 { y - 1.0 } else { y }).min(ONE_BELOW)
+}
+
+/// Largest buffer kept for reuse (points): 4 MiB.
+const MAX_POOLED: usize = 1 << 19;
+
+thread_local! {
+    /// Buffers of dropped tables' deep points, for the next pixel's table on this thread.
+    static POOL: RefCell<Vec<Vec<Vec2>>> = const { RefCell::new(Vec::new()) };
+}
+
+impl Drop for CmjTable {
+    fn drop(&mut self) {
+        let v = std::mem::take(self.deep.get_mut());
+        if v.capacity() > 0 && v.capacity() <= MAX_POOLED {
+            // A thread holds one table at a time: a few buffers are enough.
+            let _ = POOL.try_with(|p| {
+                let mut p = p.borrow_mut();
+                if p.len() < 4 {
+                    p.push(v);
+                }
+            });
+        }
+    }
+}
+
 /// The largest f32 below 1.
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
@@ -196,7 +334,7 @@ impl<'a> CmjSampler<'a> {
         CmjSampler {
             table,
             index: sample_index as u32,
-            dims: Padded::new(CMJ_DIMENSIONS, (s, p, sample_index)),
+            dims: Padded::new(CMJ_DEEP_DIMENSIONS, (s, p, sample_index)),
         }
     }
 }
@@ -209,12 +347,20 @@ impl PaddedPattern for CmjSampler<'_> {
 
     #[inline]
     fn value(&self, d: u32) -> f32 {
-        self.table.value(d as usize, self.index)
+        if d < CMJ_DIMENSIONS {
+            self.table.value(d as usize, self.index)
+        } else {
+            self.table.deep_value(d as usize, self.index)
+        }
     }
 
     #[inline]
     fn point(&self, d: u32) -> Vec2 {
-        self.table.point(d as usize, self.index)
+        if d < CMJ_DIMENSIONS {
+            self.table.point(d as usize, self.index)
+        } else {
+            self.table.deep_pair(d as usize, self.index)
+        }
     }
 }
 
@@ -318,6 +464,91 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// The dimensions past the patterns of their own come from the base pattern: each deep
+    /// dimension of a pixel's N samples is a rotation of N stratified values, so on the circle
+    /// its sorted values are never 2/N apart (independent values at N = 16 and 64 leave a gap
+    /// that wide in most pixels); and over many pixels every deep value and pair is uniform
+    /// and two deep dimensions are uncorrelated (E[x y] = ¼), for N with and without an exact
+    /// grid, N = 1 included (its deep dimensions differ by their rotations alone).
+    #[test]
+    fn deep_dimensions_are_stratified_uniform_and_uncorrelated() {
+        let deep = (CMJ_DEEP_DIMENSIONS - CMJ_DIMENSIONS) as usize;
+        for total in [16u32, 64] {
+            let mut wide = 0;
+            for pixel in 0..200u64 {
+                let table = CmjTable::new(5, pixel, total);
+                let mut dims = vec![Vec::new(); deep];
+                for s in 0..total as u64 {
+                    let mut c = CmjSampler::for_sample(&table, s);
+                    for _ in 0..CMJ_DIMENSIONS {
+                        c.uniform();
+                    }
+                    for v in dims.iter_mut() {
+                        v.push(c.uniform());
+                    }
+                }
+                for mut v in dims {
+                    v.sort_by(f32::total_cmp);
+                    let wrap = 1.0 - v[v.len() - 1] + v[0];
+                    let gap = v.windows(2).map(|w| w[1] - w[0]).fold(wrap, f32::max);
+                    assert!(
+                        gap < 2.0 / total as f32,
+                        "N {total}, pixel {pixel}: gap {gap}"
+                    );
+                }
+                // The same test fails for independent values: count how often.
+                let mut rng = Rng::for_sample(7, pixel, total as u64);
+                let mut v: Vec<f32> = (0..total).map(|_| rng.uniform()).collect();
+                v.sort_by(f32::total_cmp);
+                let wrap = 1.0 - v[v.len() - 1] + v[0];
+                let gap = v.windows(2).map(|w| w[1] - w[0]).fold(wrap, f32::max);
+                wide += usize::from(gap >= 2.0 / total as f32);
+            }
+            assert!(
+                wide > 150,
+                "N {total}: the gap test would not tell ({wide} of 200)"
+            );
+        }
+        for total in [1u32, 3, 16, 37] {
+            let pixels = 4096u64;
+            let (mut inside, mut xy, mut pair_inside) = (0u64, 0.0f64, 0u64);
+            let mut n = 0u64;
+            for pixel in 0..pixels {
+                let table = CmjTable::new(3, pixel, total);
+                for s in 0..total as u64 {
+                    let mut c = CmjSampler::for_sample(&table, s);
+                    for _ in 0..CMJ_DIMENSIONS + 3 {
+                        c.uniform();
+                    }
+                    let (x, y) = (c.uniform(), c.uniform());
+                    let p = c.uniform2();
+                    inside += u64::from(x >= 0.6);
+                    pair_inside += u64::from(p.x >= 0.3 && p.y >= 0.8);
+                    xy += (x * y) as f64;
+                    n += 1;
+                }
+            }
+            let nf = n as f64;
+            let check = |hits: u64, area: f64, what: &str| {
+                let se = (area * (1.0 - area) / nf).sqrt();
+                let f = hits as f64 / nf;
+                assert!(
+                    (f - area).abs() < 4.0 * se,
+                    "N {total}, {what}: {f} against {area}"
+                );
+            };
+            check(inside, 0.4, "a deep value");
+            check(pair_inside, 0.7 * 0.2, "a deep pair");
+            // Var(x y) for independent uniforms is 7/144.
+            let se = (7.0 / 144.0 / nf).sqrt();
+            assert!(
+                (xy / nf - 0.25).abs() < 4.0 * se,
+                "N {total}: E[x y] {}",
+                xy / nf
+            );
         }
     }
 
