@@ -61,6 +61,12 @@ pub const CMJ_DIMENSIONS: u32 = super::sobol::QMC_DIMENSIONS;
 /// (see the module docs, "Deep dimensions"). The rest from PCG32.
 pub const CMJ_DEEP_DIMENSIONS: u32 = 64;
 
+/// Largest N whose deep dimensions come from the base pattern (their points take
+/// 8 · ([`CMJ_DEEP_DIMENSIONS`] − [`CMJ_DIMENSIONS`]) · N bytes a pixel being rendered, 7 MB
+/// here); above it they come from PCG32, so that a pixel's table stays within that memory
+/// (a render of a million samples a pixel would otherwise hold 430 MB a thread).
+pub const CMJ_DEEP_MAX_SAMPLES: u32 = 16_384;
+
 /// One dimension's permutations, drawn when a sample first uses the dimension: the samples'
 /// order over the cells, and where the dimension starts a pair the grid's columns and rows and
 /// their sub-strata.
@@ -181,9 +187,9 @@ impl CmjTable {
         self.deep.borrow()[k * n + s as usize]
     }
 
-    /// Lays out deep dimension `d`: the base points shuffled (Durstenfeld's inside-out
-    /// Fisher–Yates, two 32-bit indices from each SplitMix64 output of the dimension's own
-    /// key) and rotated by the dimension's offset modulo 1.
+    /// Lays out deep dimension `d`: the base points shuffled (the inside-out form of the
+    /// Fisher–Yates shuffle, two 32-bit indices from each SplitMix64 output of the dimension's
+    /// own key) and rotated by the dimension's offset modulo 1.
     #[cold]
     fn lay_out(&self, d: usize) {
         let k = d - CMJ_DIMENSIONS as usize;
@@ -334,7 +340,14 @@ impl<'a> CmjSampler<'a> {
         CmjSampler {
             table,
             index: sample_index as u32,
-            dims: Padded::new(CMJ_DEEP_DIMENSIONS, (s, p, sample_index)),
+            dims: Padded::new(
+                if table.total <= CMJ_DEEP_MAX_SAMPLES {
+                    CMJ_DEEP_DIMENSIONS
+                } else {
+                    CMJ_DIMENSIONS
+                },
+                (s, p, sample_index),
+            ),
         }
     }
 }
@@ -549,6 +562,22 @@ mod tests {
                 "N {total}: E[x y] {}",
                 xy / nf
             );
+        }
+    }
+
+    /// Above [`CMJ_DEEP_MAX_SAMPLES`] the deep dimensions come from PCG32: the base pattern and
+    /// its points are never made (at the limit they are).
+    #[test]
+    fn deep_dimensions_are_bounded_in_memory() {
+        for (total, made) in [
+            (CMJ_DEEP_MAX_SAMPLES, true),
+            (CMJ_DEEP_MAX_SAMPLES + 1, false),
+        ] {
+            let table = CmjTable::new(1, 2, total);
+            let mut c = CmjSampler::for_sample(&table, 3);
+            let v: Vec<f32> = (0..CMJ_DIMENSIONS + 4).map(|_| c.uniform()).collect();
+            assert!(v.iter().all(|x| (0.0..1.0).contains(x)));
+            assert_eq!(table.base.get().is_some(), made, "N {total}");
         }
     }
 
