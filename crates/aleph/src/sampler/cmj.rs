@@ -114,8 +114,8 @@ pub struct CmjTable {
     /// [`CMJ_DIMENSIONS`]), made when a sample first goes past [`CMJ_DIMENSIONS`].
     base: OnceCell<Vec<Vec2>>,
     /// The deep dimensions' points, N each from dimension [`CMJ_DIMENSIONS`] on, in one
-    /// buffer sized with the base pattern; bit k of `deep_drawn`: dimension
-    /// [`CMJ_DIMENSIONS`] + k laid out.
+    /// buffer (taken from this thread's pool, sized when first used); bit k of `deep_drawn`:
+    /// dimension [`CMJ_DIMENSIONS`] + k laid out.
     deep: RefCell<Vec<Vec2>>,
     deep_drawn: Cell<u64>,
 }
@@ -162,12 +162,9 @@ impl CmjTable {
         }
     }
 
-    /// The base pattern's points, made (with the deep dimensions' buffer) when first needed.
+    /// The base pattern's points, made when first needed.
     fn base(&self) -> &[Vec2] {
         self.base.get_or_init(|| {
-            let mut deep = self.deep.borrow_mut();
-            deep.clear();
-            deep.resize(DEEP * self.total as usize, Vec2::ZERO);
             (0..self.total)
                 .map(|s| self.point(CMJ_DIMENSIONS as usize, s))
                 .collect()
@@ -196,10 +193,12 @@ impl CmjTable {
         let n = self.total as usize;
         let base = self.base();
         let key = mix64(self.seed ^ 0xBB67_AE85_84CA_A73B ^ mix64(self.pixel ^ (d as u64) << 40));
-        let r = mix64(key);
-        let unit = 1.0 / (1u32 << 24) as f32;
-        let shift = Vec2::new((r >> 40) as f32 * unit, (r & 0xff_ffff) as f32 * unit);
+        let (sx, sy) = two_units(mix64(key));
+        let shift = Vec2::new(sx, sy);
         let mut deep = self.deep.borrow_mut();
+        // Sized at the pixel's first deep dimension (a pooled buffer of the right size is
+        // kept as it is: every entry of a dimension is written before it is read).
+        deep.resize(DEEP * n, Vec2::ZERO);
         let out = &mut deep[k * n..(k + 1) * n];
         let mut bits = 0u64;
         for i in 0..n {
@@ -258,9 +257,7 @@ impl CmjTable {
     /// Two 24-bit jitters in [0, 1) of sample `s` in dimension `d`.
     #[inline]
     fn jitter(&self, d: usize, s: u32) -> (f32, f32) {
-        let j = mix64(self.dims[d].jitter ^ s as u64);
-        let k = 1.0 / (1u32 << 24) as f32;
-        ((j >> 40) as f32 * k, (j & 0xff_ffff) as f32 * k)
+        two_units(mix64(self.dims[d].jitter ^ s as u64))
     }
 
     /// Point `s` (< N) of the pattern starting at dimension `d`.
@@ -282,6 +279,13 @@ impl CmjTable {
         let (j, _) = self.jitter(d, s);
         ((self.order(d)[s as usize] as f32 + j) / self.total as f32).min(ONE_BELOW)
     }
+}
+
+/// Two 24-bit values in [0, 1) from the top and bottom bits of `j`.
+#[inline]
+fn two_units(j: u64) -> (f32, f32) {
+    let k = 1.0 / (1u32 << 24) as f32;
+    ((j >> 40) as f32 * k, (j & 0xff_ffff) as f32 * k)
 }
 
 /// `x + shift` modulo 1, below 1.
