@@ -184,9 +184,9 @@ impl CmjTable {
         self.deep.borrow()[k * n + s as usize]
     }
 
-    /// Lays out deep dimension `d`: the base points shuffled (the inside-out form of the
-    /// Fisher–Yates shuffle, two 32-bit indices from each SplitMix64 output of the dimension's
-    /// own key) and rotated by the dimension's offset modulo 1.
+    /// Lays out deep dimension `d`: the base points rotated by the dimension's offset modulo 1
+    /// and shuffled (the inside-out form of the Fisher–Yates shuffle, two 32-bit indices from
+    /// each SplitMix64 output of the dimension's own key), in one pass.
     #[cold]
     fn lay_out(&self, d: usize) {
         let k = d - CMJ_DIMENSIONS as usize;
@@ -209,11 +209,9 @@ impl CmjTable {
                 (bits >> 32) as u32
             };
             let j = ((u as u64 * (i as u64 + 1)) >> 32) as usize;
+            let b = base[i];
             out[i] = out[j];
-            out[j] = base[i];
-        }
-        for p in out.iter_mut() {
-            *p = Vec2::new(rotate(p.x, shift.x), rotate(p.y, shift.y));
+            out[j] = Vec2::new(rotate(b.x, shift.x), rotate(b.y, shift.y));
         }
         self.deep_drawn.set(self.deep_drawn.get() | 1 << k);
     }
@@ -493,6 +491,12 @@ mod tests {
     #[test]
     fn deep_dimensions_are_stratified_uniform_and_uncorrelated() {
         let deep = (CMJ_DEEP_DIMENSIONS - CMJ_DIMENSIONS) as usize;
+        // The widest gap between neighbouring values on the circle.
+        let max_gap = |mut v: Vec<f32>| {
+            v.sort_by(f32::total_cmp);
+            let wrap = 1.0 - v[v.len() - 1] + v[0];
+            v.windows(2).map(|w| w[1] - w[0]).fold(wrap, f32::max)
+        };
         for total in [16u32, 64] {
             let mut wide = 0;
             for pixel in 0..200u64 {
@@ -507,10 +511,8 @@ mod tests {
                         v.push(c.uniform());
                     }
                 }
-                for mut v in dims {
-                    v.sort_by(f32::total_cmp);
-                    let wrap = 1.0 - v[v.len() - 1] + v[0];
-                    let gap = v.windows(2).map(|w| w[1] - w[0]).fold(wrap, f32::max);
+                for v in dims {
+                    let gap = max_gap(v);
                     assert!(
                         gap < 2.0 / total as f32,
                         "N {total}, pixel {pixel}: gap {gap}"
@@ -518,11 +520,8 @@ mod tests {
                 }
                 // The same test fails for independent values: count how often.
                 let mut rng = Rng::for_sample(7, pixel, total as u64);
-                let mut v: Vec<f32> = (0..total).map(|_| rng.uniform()).collect();
-                v.sort_by(f32::total_cmp);
-                let wrap = 1.0 - v[v.len() - 1] + v[0];
-                let gap = v.windows(2).map(|w| w[1] - w[0]).fold(wrap, f32::max);
-                wide += usize::from(gap >= 2.0 / total as f32);
+                let v: Vec<f32> = (0..total).map(|_| rng.uniform()).collect();
+                wide += usize::from(max_gap(v) >= 2.0 / total as f32);
             }
             assert!(
                 wide > 150,
