@@ -78,7 +78,7 @@
 //! the moving-sphere box that step was a 3 Hz pulse of the displayed mean, which ColorVideoVDP
 //! scored below independent frames). K = 0 gives independent frames.
 
-use crate::camera::Camera;
+use crate::camera::{Camera, Projection};
 use crate::film::{Film, HistoryPixel};
 use crate::gbuffer::{GBuffer, object_index, reuse_angle};
 use crate::integrator::FirstHit;
@@ -1138,13 +1138,18 @@ fn covered_by(
         .into_par_iter()
         .map(|i| seen_by(scene, g, i, f, cams, cos_normal))
         .collect();
+    // Each pixel and its left and right neighbours, then those rows above and below.
+    let across: Vec<bool> = seen
+        .par_chunks(w)
+        .flat_map_iter(|row| {
+            (0..w).map(move |x| row[x.saturating_sub(1)..(x + 2).min(w)].iter().all(|&b| b))
+        })
+        .collect();
     (0..w * h)
         .into_par_iter()
         .map(|i| {
-            let (x, y) = (i % w, i / w);
-            let ys = y.saturating_sub(1)..(y + 2).min(h);
-            ys.flat_map(|yy| (x.saturating_sub(1)..(x + 2).min(w)).map(move |xx| yy * w + xx))
-                .all(|k| seen[k])
+            let y = i / w;
+            across[i] && (y == 0 || across[i - w]) && (y + 1 == h || across[i + w])
         })
         .collect()
 }
@@ -1170,12 +1175,13 @@ fn seen_by(
     if sight.turn > g.reuse_angle[i] {
         return false;
     }
-    let (x, y) = (sight.raster.x.floor(), sight.raster.y.floor());
-    if x < 0.0 || y < 0.0 || x >= o.width as f32 || y >= o.height as f32 {
+    let r = sight.raster;
+    if !(r.x >= 0.0 && r.y >= 0.0 && r.x < o.width as f32 && r.y < o.height as f32) {
         return false;
     }
-    let k = y as usize * o.width + x as usize;
-    let (kx, ky) = (k % o.width, k / o.width);
+    // In range, the truncation is the floor.
+    let (kx, ky) = (r.x as usize, r.y as usize);
+    let k = ky * o.width + kx;
     let around = [
         Some(k),
         (kx > 0).then(|| k - 1),
@@ -1222,6 +1228,8 @@ pub struct Shutter {
     /// Cameras at `time + first + k · step`, k = 0 ..= [`SHUTTER_CAMERAS`] (one, at `time`,
     /// without motion blur).
     cams: Vec<Camera>,
+    /// Their projections, for landing samples ([`Camera::projection`]).
+    proj: Vec<Projection>,
     first: f32,
     step: f32,
 }
@@ -1236,23 +1244,21 @@ impl Shutter {
     pub fn of(scene: &Scene) -> Shutter {
         let fr = &scene.frame;
         let time = fr.time_s as f32;
-        if !fr.has_motion_blur() || scene.camera_track.is_none() {
-            let cams = vec![scene.camera_at(time).into_owned()];
-            return Shutter {
-                time,
-                cams,
-                first: 0.0,
-                step: 1.0,
-            };
-        }
-        let first = (fr.open_s - fr.time_s) as f32;
-        let step = ((fr.close_s - fr.open_s) / SHUTTER_CAMERAS as f64) as f32;
-        let cams = (0..=SHUTTER_CAMERAS)
-            .map(|k| scene.camera_at(time + first + k as f32 * step).into_owned())
-            .collect();
+        let (cams, first, step) = if !fr.has_motion_blur() || scene.camera_track.is_none() {
+            (vec![scene.camera_at(time).into_owned()], 0.0, 1.0)
+        } else {
+            let first = (fr.open_s - fr.time_s) as f32;
+            let step = ((fr.close_s - fr.open_s) / SHUTTER_CAMERAS as f64) as f32;
+            let cams = (0..=SHUTTER_CAMERAS)
+                .map(|k| scene.camera_at(time + first + k as f32 * step).into_owned())
+                .collect();
+            (cams, first, step)
+        };
+        let proj = cams.iter().map(Camera::projection).collect();
         Shutter {
             time,
             cams,
+            proj,
             first,
             step,
         }
@@ -1264,37 +1270,55 @@ impl Shutter {
     }
 
     /// The cameras about `dt` after the frame's instant and the weight of the second.
-    fn about(&self, dt: f32) -> (&Camera, &Camera, f32) {
-        if self.cams.len() == 1 {
-            return (&self.cams[0], &self.cams[0], 0.0);
+    fn about(&self, dt: f32) -> About<'_> {
+        if self.proj.len() == 1 {
+            return About {
+                a: &self.proj[0],
+                b: &self.proj[0],
+                w: 0.0,
+            };
         }
         let x = ((dt - self.first) / self.step).clamp(0.0, SHUTTER_CAMERAS as f32);
-        let k = (x.floor() as usize).min(SHUTTER_CAMERAS - 1);
-        (&self.cams[k], &self.cams[k + 1], x - k as f32)
+        // x ≥ 0 (or NaN, which both give as 0): the truncation is the floor.
+        let k = (x as usize).min(SHUTTER_CAMERAS - 1);
+        About {
+            a: &self.proj[k],
+            b: &self.proj[k + 1],
+            w: x - k as f32,
+        }
+    }
+}
+
+/// The projections of the two cameras of a [`Shutter`] about one instant, and the weight of
+/// the second.
+struct About<'a> {
+    a: &'a Projection,
+    b: &'a Projection,
+    w: f32,
+}
+
+impl About<'_> {
+    /// The camera's position.
+    fn position(&self) -> Vec3 {
+        self.a.position().lerp(self.b.position(), self.w)
     }
 
-    /// The camera's position `dt` after the frame's instant.
-    fn position(&self, dt: f32) -> Vec3 {
-        let (a, b, w) = self.about(dt);
-        a.position.lerp(b.position, w)
-    }
-
-    /// Raster position of world point `p` (or, with `direction`, of the direction `p`) seen at
-    /// `dt` after the frame's instant; `None` behind the camera.
-    fn raster(&self, p: Vec3, dt: f32, direction: bool) -> Option<Vec2> {
-        let project = |c: &Camera| {
+    /// Raster position of world point `p` (or, with `direction`, of the direction `p`);
+    /// `None` behind the camera.
+    #[inline]
+    fn raster(&self, p: Vec3, direction: bool) -> Option<Vec2> {
+        let project = |c: &Projection| {
             if direction {
                 c.raster_of_direction(p)
             } else {
                 c.raster(p)
             }
         };
-        let (a, b, w) = self.about(dt);
-        if w == 0.0 {
-            return project(a);
+        if self.w == 0.0 {
+            return project(self.a);
         }
-        let (a, b) = (project(a)?, project(b)?);
-        Some(a + (b - a) * w)
+        let (a, b) = (project(self.a)?, project(self.b)?);
+        Some(a + (b - a) * self.w)
     }
 }
 
@@ -1319,11 +1343,12 @@ impl Landing<'_> {
         let (g, geo) = (self.g, &self.scene.geometry);
         let t = self.shutter.time + s.dt;
         if s.tri == u32::MAX {
-            let i = self.pixel(self.shutter.raster(s.at, s.dt, true)?)?;
+            let cams = self.shutter.about(s.dt);
+            let i = self.pixel(cams.raster(s.at, true)?)?;
             if !self.covered[i] {
                 return None;
             }
-            let eye = self.shutter.position(s.dt);
+            let eye = cams.position();
             let shown = g.px[i].is_background() && g.px[i].flags & STEP == 0;
             if !(shown || geo.unoccluded(eye, s.at, f32::INFINITY, t)) {
                 return None;
@@ -1334,13 +1359,14 @@ impl Landing<'_> {
         let tri = &self.tris[s.tri as usize];
         let now = geo.instance_transform(tri.instance, t);
         let p = now.map_or(s.at, |m| m.transform_point3(s.at));
-        let i = self.pixel(self.shutter.raster(p, s.dt, false)?)?;
+        let cams = self.shutter.about(s.dt);
+        let i = self.pixel(cams.raster(p, false)?)?;
         if !self.covered[i] {
             return None;
         }
         let material = tri.material;
         let normal = now.map_or(tri.normal, |m| normal_to_world(&m, tri.normal));
-        let eye = self.shutter.position(s.dt);
+        let eye = cams.position();
         let view = eye - p;
         let cos_now = normal.dot(view.normalize_or_zero());
         // The side seen then is the side seen now (a thin wall's other side is another surface).

@@ -1,0 +1,57 @@
+//! Reuse across frames: what a reusing frame costs besides its tracing, on the bundled Lost
+//! Empire walkthrough at its preview size (240×150, 2 fresh spp, a full window of 15 frames).
+//!
+//! `cargo bench -p aleph-benches --bench reuse`. `reproject` lands every kept sample of the
+//! window's 15 frames in frame 15 (docs/reuse.md, step 3: 1.08 M landings here); `test` makes
+//! the frame's history from them (steps 4 and 5), as a reusing frame does after each pass.
+//! The CLI's summary line reports the two together as "reprojection".
+
+use aleph::adaptive::{AdaptiveSettings, Criterion as Rule, render_reusing};
+use aleph::reuse::{ReuseWindow, Reused, window_start};
+use aleph::scene::{Scene, SceneDescription};
+use aleph::sequence::Sequence;
+use aleph_benches::repo;
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+
+/// Window frames (the default `--reuse-window`).
+const K: u32 = 15;
+
+fn walk() -> Scene {
+    let mut desc = SceneDescription::read(&repo("scenes/lost-empire/walk.toml")).unwrap();
+    desc.camera.resolution = [240, 150];
+    Scene::load_description(desc).unwrap()
+}
+
+fn reuse(c: &mut Criterion) {
+    let scene = walk();
+    let sequence = Sequence::new(&scene, 0, K as i64).unwrap();
+    let settings = AdaptiveSettings {
+        criterion: Rule::Perceptual,
+        budget_spp: Some(2.0),
+        ..AdaptiveSettings::default()
+    };
+    let mut window = ReuseWindow::new();
+    for f in 0..K as i64 {
+        let frame = sequence.frame(f).unwrap();
+        window.keep_from(window_start(f, 0, K));
+        let (_, own) = render_reusing(&frame.scene, &settings, &window, &|_| {}, &|_| {}).unwrap();
+        window.push(own);
+    }
+    let last = sequence.frame(K as i64).unwrap().scene;
+    let (r, _) = render_reusing(&last, &settings, &window, &|_| {}, &|_| {}).unwrap();
+    let gbuffer = r.gbuffer.as_ref().unwrap();
+    let pixels = (240 * 150) as u64;
+
+    let mut g = c.benchmark_group("reuse_walk_240x150_2spp");
+    g.sample_size(20);
+    g.throughput(Throughput::Elements(pixels));
+    g.bench_function("reproject", |b| b.iter(|| window.reproject(&last, gbuffer)));
+    let reprojected = window.reproject(&last, gbuffer);
+    g.bench_function("test", |b| {
+        b.iter(|| reprojected.test(&r.film, Reused::All))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, reuse);
+criterion_main!(benches);
