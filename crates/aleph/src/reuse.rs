@@ -677,11 +677,11 @@ impl Reprojected {
             .map(|p| Moments::of(luminance(p.sum()), p.count() as f64, p.sum_lum2.value()))
             .collect();
         let mut bias = vec![0f32; w * h];
-        // Per window frame, per pixel: the share of its samples kept.
+        // Per window frame, per pixel: the share of its samples kept (none where nothing but
+        // the camera moves: everything is kept, and `keep` takes every share as 1).
         let mut shares: Vec<Vec<f64>> = Vec::with_capacity(layer.frames.len());
         for (f, lum) in layer.frames.iter().zip(&layer.lum) {
             if self.still_light {
-                shares.push(vec![1.0; w * h]);
                 continue;
             }
             let reused: Vec<Moments> = f
@@ -748,7 +748,7 @@ fn outlier_floors(layer: &Layer, fresh_y: &[Moments], (w, h): (usize, usize)) ->
 }
 
 /// The film's history: per pixel, the layer's frames summed with the shares the test kept
-/// (`shares[j][i]`), less the held fireflies ([`HELD_OUTLIER_RATIO`]), whose excess over the
+/// (`shares[j][i]`; every share 1 where `shares` is empty), less the held fireflies ([`HELD_OUTLIER_RATIO`]), whose excess over the
 /// rest (with the `fresh` film's samples) is spread over their surface ([`spread`]).
 fn keep(
     layer: &Layer,
@@ -765,7 +765,11 @@ fn keep(
             || (Vec::new(), Vec::new()),
             |(s, held), i| {
                 s.clear();
-                s.extend(shares.iter().map(|v| v[i]));
+                if shares.is_empty() {
+                    s.resize(layer.frames.len(), 1.0);
+                } else {
+                    s.extend(shares.iter().map(|v| v[i]));
+                }
                 held.clear();
                 held.extend(layer.lum.iter().map(|l| l[i]));
                 let all = weighted_sum(layer, s, i);
@@ -827,19 +831,18 @@ fn mean_sample_luminance(fresh: &[Moments]) -> f64 {
 /// The kept frames (share > 0) of the highest and the next highest luminance per sample; the
 /// first in `frames` of equals.
 fn two_brightest(frames: &[(f64, f64)], shares: &[f64]) -> (Option<usize>, Option<usize>) {
-    let (mut top, mut next): (Option<usize>, Option<usize>) = (None, None);
-    let brighter = |a: usize, b: Option<usize>| {
-        b.is_none_or(|b| per_sample(frames[a]) > per_sample(frames[b]))
-    };
+    // (frame, luminance per sample): each frame's divided once.
+    let (mut top, mut next): (Option<(usize, f64)>, Option<(usize, f64)>) = (None, None);
     for j in (0..frames.len()).filter(|&j| shares[j] > 0.0) {
-        if brighter(j, top) {
+        let v = per_sample(frames[j]);
+        if top.is_none_or(|(_, t)| v > t) {
             next = top;
-            top = Some(j);
-        } else if brighter(j, next) {
-            next = Some(j);
+            top = Some((j, v));
+        } else if next.is_none_or(|(_, t)| v > t) {
+            next = Some((j, v));
         }
     }
-    (top, next)
+    (top.map(|t| t.0), next.map(|t| t.0))
 }
 
 /// Luminance per sample of a (luminance sum, weight) pair; 0 for no weight.
