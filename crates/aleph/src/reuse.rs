@@ -832,7 +832,7 @@ fn mean_sample_luminance(fresh: &[Moments]) -> f64 {
 /// first in `frames` of equals.
 fn two_brightest(frames: &[(f64, f64)], shares: &[f64]) -> (Option<usize>, Option<usize>) {
     // (frame, luminance per sample): each frame's divided once.
-    let (mut top, mut next): (Option<(usize, f64)>, Option<(usize, f64)>) = (None, None);
+    let (mut top, mut next) = (None::<(usize, f64)>, None::<(usize, f64)>);
     for j in (0..frames.len()).filter(|&j| shares[j] > 0.0) {
         let v = per_sample(frames[j]);
         if top.is_none_or(|(_, t)| v > t) {
