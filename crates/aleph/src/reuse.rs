@@ -696,10 +696,10 @@ impl Reprojected {
                     if reused[i].n <= 0.0 {
                         return (0.0, 0.0);
                     }
-                    let start = (1.0f64, 0.0f32);
+                    let (start, xy) = ((1.0f64, 0.0f32), (i % w, i / w));
                     TEST_RADII
                         .iter()
-                        .map(|&r| pooled.verdict(i, r))
+                        .map(|&r| pooled.verdict(xy, r))
                         .fold(start, |a, b| (a.0.min(b.0), a.1.max(b.1)))
                 })
                 .collect();
@@ -741,7 +741,7 @@ fn outlier_floors(layer: &Layer, fresh_y: &[Moments], (w, h): (usize, usize)) ->
     (0..w * h)
         .into_par_iter()
         .map(|i| {
-            let [sum, count] = sat.sums(i, 1);
+            let [sum, count] = sat.sums((i % w, i / w), 1);
             (sum / count).max(floor)
         })
         .collect()
@@ -951,10 +951,10 @@ impl Pooled {
         }))
     }
 
-    /// The share of the reprojected frame kept at pixel `i`, and the disagreement bound (Y),
+    /// The share of the reprojected frame kept at pixel `xy`, and the disagreement bound (Y),
     /// pooled over its (2r + 1)² neighbourhood.
-    fn verdict(&self, i: usize, r: usize) -> (f64, f32) {
-        let [fresh, reused, var, n] = self.0.sums(i, r);
+    fn verdict(&self, xy: (usize, usize), r: usize) -> (f64, f32) {
+        let [fresh, reused, var, n] = self.0.sums(xy, r);
         if n <= 0.0 {
             return (1.0, 0.0);
         }
@@ -1005,10 +1005,9 @@ impl<const N: usize> SummedArea<N> {
         SummedArea { sat, w, h }
     }
 
-    /// The N sums over pixel `i`'s (2r + 1)² neighbourhood clipped to the image.
-    fn sums(&self, i: usize, r: usize) -> [f64; N] {
+    /// The N sums over pixel `(x, y)`'s (2r + 1)² neighbourhood clipped to the image.
+    fn sums(&self, (x, y): (usize, usize), r: usize) -> [f64; N] {
         let (w, h) = (self.w, self.h);
-        let (x, y) = (i % w, i / w);
         let (x0, y0) = (x.saturating_sub(r), y.saturating_sub(r));
         let (x1, y1) = ((x + r + 1).min(w), (y + r + 1).min(h));
         let at = |x: usize, y: usize| self.sat[y * (w + 1) + x];

@@ -112,9 +112,14 @@ pub(super) fn spread(excess: &[DVec3], s: &Surfaces) -> Vec<DVec3> {
         .map(|j| {
             let (x, y) = (j % w, j / w);
             let mut sum = DVec3::ZERO;
-            for row in &rows[y.saturating_sub(r)..(y + r + 1).min(h)] {
-                let first = row.partition_point(|&(i, _)| i % w + r < x);
-                let near = row[first..].iter().take_while(|&&(i, _)| i % w <= x + r);
+            let y0 = y.saturating_sub(r);
+            for (dy, row) in rows[y0..(y + r + 1).min(h)].iter().enumerate() {
+                // The row's pixels i, at x = i − start.
+                let start = (y0 + dy) * w;
+                let first = row.partition_point(|&(i, _)| i - start + r < x);
+                let near = row[first..]
+                    .iter()
+                    .take_while(|&&(i, _)| i - start <= x + r);
                 for &(i, share) in near {
                     if s.same(i, j) {
                         sum += share;
