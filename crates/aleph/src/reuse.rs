@@ -748,8 +748,9 @@ fn outlier_floors(layer: &Layer, fresh_y: &[Moments], (w, h): (usize, usize)) ->
 }
 
 /// The film's history: per pixel, the layer's frames summed with the shares the test kept
-/// (`shares[j][i]`; every share 1 where `shares` is empty), less the held fireflies ([`HELD_OUTLIER_RATIO`]), whose excess over the
-/// rest (with the `fresh` film's samples) is spread over their surface ([`spread`]).
+/// (`shares[j][i]`; every share 1 where `shares` is empty), less the held fireflies
+/// ([`HELD_OUTLIER_RATIO`]), whose excess over the rest (with the `fresh` film's samples) is
+/// spread over their surface ([`spread`]).
 fn keep(
     layer: &Layer,
     shares: &[Vec<f64>],
