@@ -397,6 +397,13 @@ impl FrameSamples {
     pub fn is_empty(&self) -> bool {
         self.samples.is_empty()
     }
+
+    /// Whether every pixel holds exactly its base pass's samples, so that a frame's samples
+    /// land alike as [`Reused::Base`] and as [`Reused::All`] (the same samples, each with the
+    /// same share of its pixel's footprint).
+    fn only_base(&self) -> bool {
+        self.start.windows(2).all(|r| r[1] - r[0] == self.base)
+    }
 }
 
 /// What reuse needs of a frame's G-buffer ([`GBuffer`]), one record of 48 bytes per pixel: a
@@ -536,6 +543,7 @@ impl ReuseWindow {
             .map(|f| splat_frame(scene, (g, &view), f, (&shutter, &angles, tris)))
             .unzip();
         Reprojected {
+            base_is_all: self.frames.iter().all(FrameSamples::only_base),
             base: Layer::new(base),
             all: Layer::new(all),
             width: g.width,
@@ -550,6 +558,8 @@ impl ReuseWindow {
 /// samples).
 #[derive(Clone, Debug)]
 pub struct Reprojected {
+    /// Every window frame's samples are its base pass's: `base` and `all` are equal.
+    base_is_all: bool,
     /// The window frames' base passes ([`Reused::Base`]).
     base: Layer,
     /// Every sample of the window frames ([`Reused::All`]).
@@ -661,6 +671,12 @@ pub struct Tested {
 }
 
 impl Reprojected {
+    /// Whether every window frame's samples are its base pass's ([`Reused::Base`] and
+    /// [`Reused::All`] are the same samples).
+    pub fn base_is_all(&self) -> bool {
+        self.base_is_all
+    }
+
     /// Tests each reprojected frame's `reused` samples against `fresh` (the current frame's
     /// fresh samples so far; see the module docs): weights it down where they disagree, and
     /// bounds the bias of what is kept.
