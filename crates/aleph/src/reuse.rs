@@ -695,11 +695,13 @@ impl Reprojected {
         let mut bias = vec![0f32; w * h];
         // Per window frame, per pixel: the share of its samples kept (none where nothing but
         // the camera moves: everything is kept, and `keep` takes every share as 1).
-        let mut shares: Vec<Vec<f64>> = Vec::with_capacity(layer.frames.len());
-        for (f, lum) in layer.frames.iter().zip(&layer.lum) {
-            if self.still_light {
-                continue;
-            }
+        let tested = if self.still_light {
+            0
+        } else {
+            layer.frames.len()
+        };
+        let mut shares: Vec<Vec<f64>> = Vec::with_capacity(tested);
+        for (f, lum) in layer.frames.iter().zip(&layer.lum).take(tested) {
             let reused: Vec<Moments> = f
                 .iter()
                 .zip(lum)
@@ -1244,11 +1246,11 @@ struct Landing<'a> {
 pub struct Shutter {
     /// The frame's instant, s.
     time: f32,
-    /// Cameras at `time + first + k · step`, k = 0 ..= [`SHUTTER_CAMERAS`] (one, at `time`,
-    /// without motion blur).
-    cams: Vec<Camera>,
-    /// Their projections, for landing samples ([`Camera::projection`]).
+    /// The projections ([`Camera::projection`]) of the cameras at `time + first + k · step`,
+    /// k = 0 ..= [`SHUTTER_CAMERAS`] (one, at `time`, without motion blur).
     proj: Vec<Projection>,
+    /// The middle one of those cameras, at the frame's instant.
+    centre: Camera,
     first: f32,
     step: f32,
 }
@@ -1263,7 +1265,7 @@ impl Shutter {
     pub fn of(scene: &Scene) -> Shutter {
         let fr = &scene.frame;
         let time = fr.time_s as f32;
-        let (cams, first, step) = if !fr.has_motion_blur() || scene.camera_track.is_none() {
+        let (mut cams, first, step) = if !fr.has_motion_blur() || scene.camera_track.is_none() {
             (vec![scene.camera_at(time).into_owned()], 0.0, 1.0)
         } else {
             let first = (fr.open_s - fr.time_s) as f32;
@@ -1274,10 +1276,11 @@ impl Shutter {
             (cams, first, step)
         };
         let proj = cams.iter().map(Camera::projection).collect();
+        let centre = cams.swap_remove(cams.len() / 2);
         Shutter {
             time,
-            cams,
             proj,
+            centre,
             first,
             step,
         }
@@ -1285,7 +1288,7 @@ impl Shutter {
 
     /// The camera at the frame's instant.
     fn centre(&self) -> &Camera {
-        &self.cams[self.cams.len() / 2]
+        &self.centre
     }
 
     /// The cameras about `dt` after the frame's instant and the weight of the second.
