@@ -311,6 +311,64 @@ fn a_pan_reprojects_the_wall_onto_itself_and_samples_what_comes_into_view() {
     );
 }
 
+/// Under a budget of 1 fresh spp the base pass is a checkerboard (half a sample a pixel,
+/// `aleph::reuse::BasePass::Checker`, from a window of `CHECKER_MIN_WINDOW` frames) and the
+/// other half levels the effective counts: on the panned wall the column that came into view,
+/// which reuses nothing, takes a sample in every pixel and more than the interior, where a
+/// quarter of the pixels and more take none and live on their reused samples; frame 5 (a
+/// window of 5) keeps the budget and has the reference's mean.
+#[test]
+fn one_fresh_spp_draws_a_checkerboard_and_levels_what_reuses_least() {
+    let dir = tempdir();
+    let scene = panned_wall(dir.path());
+    const { assert!(aleph::reuse::CHECKER_MIN_WINDOW <= 5) };
+    let keep = run(&job(&scene, 7, 1.0, [0, 5]));
+    let f5 = keep.frame(5);
+    let film = &f5.film;
+    let w = 48usize;
+    let fresh = |i: usize| film.pixels[i].count() as f64;
+    let total: f64 = (0..film.len()).map(fresh).sum();
+    assert!(
+        (total / film.len() as f64 - 1.0).abs() < 0.01,
+        "{total} fresh samples"
+    );
+    let edge: Vec<f64> = (0..48).map(|y| fresh(y * w + w - 1)).collect();
+    let mid = (0..48)
+        .flat_map(|y| (0..w - 4).map(move |x| y * w + x))
+        .map(fresh)
+        .sum::<f64>()
+        / (48 * (w - 4)) as f64;
+    assert!(edge.iter().all(|&n| n >= 1.0), "edge column {edge:?}");
+    let edge_mean = edge.iter().sum::<f64>() / 48.0;
+    assert!(
+        edge_mean > 1.5 * mid,
+        "edge {edge_mean} fresh spp, interior {mid}"
+    );
+    let without = (0..film.len()).filter(|&i| fresh(i) == 0.0).count();
+    assert!(
+        without > film.len() / 4,
+        "{without} pixels without a fresh sample"
+    );
+    assert!((0..film.len()).all(|i| film.effective_count(i) > 0.0));
+    // Its mean is the reference's: 8×8 blocks within the Šidák-corrected z of 30 tests at
+    // 1 %, away from the edge that came into view (its pixels hold 1–3 samples, whose own
+    // variance is too rough an estimate for a z; over seeds 0–9 its blocks' z averaged −0.1).
+    // A block holding a pixel of fewer than 2 effective samples has no finite error and
+    // cannot fail (about 5 of the 30 here).
+    let b = 8;
+    let per_row = w / b;
+    let left = |v: Vec<(f64, f64)>| -> Vec<(f64, f64)> {
+        v.into_iter()
+            .enumerate()
+            .filter(|(i, _)| i % per_row < per_row - 1)
+            .map(|(_, v)| v)
+            .collect()
+    };
+    let reference = left(reference_blocks(&scene, 5, 1024, b));
+    let z = worst_z(&left(block_stats(&f5, b)), &reference);
+    assert!(z < sidak_z(0.01, reference.len()), "worst block z {z}");
+}
+
 /// Renders frames 0–3 of `scene` with reuse (window 7, 16 spp) and checks frame 3 against a
 /// fresh reference of frame 3 in 8×8 blocks: reuse left no visible trace of the past there.
 fn frame_3_matches_its_reference(scene: &Path) -> AdaptiveResult {
@@ -585,6 +643,25 @@ fn a_frame_rendered_alone_equals_the_same_frame_in_its_sequence() {
     run(&["--frame", "4", "--reuse-window", "0", "-o", "ind"]);
     assert!(!channels("ind.0004.exr").f32s.contains_key("History.spp"));
     assert!(ca.f32s.contains_key("History.spp"));
+    // At 1 fresh spp the base passes of frames with a window of 4 or more are checkerboards
+    // (`aleph::reuse::BasePass::Checker`): frame 11 alone renders frame 3's whole base pass
+    // and frames 4–6's checkerboards, then frames 7–10 whole.
+    const { assert!(aleph::reuse::CHECKER_MIN_WINDOW == 4) };
+    let one = ["--spp", "1", "--reuse-window", "4"];
+    let run1 = |extra: &[&str]| {
+        let mut args = vec!["render", s, "--resolution", "24x24"];
+        args.extend(one);
+        args.extend(extra);
+        let o = aleph(dir.path(), &args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run1(&["--frames", "0-11", "-o", "seq1"]);
+    run1(&["--frame", "11", "-o", "alone1"]);
+    let (ca, cb) = (channels("seq1.0011.exr"), channels("alone1.0011.exr"));
+    assert_eq!(ca.f32s, cb.f32s);
+    assert_eq!(ca.u32s, cb.u32s);
+    let none = ca.u32s["spp"].iter().filter(|&&n| n == 0).count();
+    assert!(none > 0, "frame 11 took a fresh sample in every pixel");
 }
 
 #[test]
@@ -655,8 +732,11 @@ fn a_frame_keeps_its_first_samples_within_the_memory_bound() {
         budget_spp: Some(8.0),
         ..aleph::adaptive::AdaptiveSettings::default()
     };
-    assert_eq!(aleph::reuse::base_spp(s.budget_spp), 4);
-    let kept = aleph::adaptive::render_base(&scene, &s).unwrap();
+    assert_eq!(
+        aleph::reuse::BasePass::of(s.budget_spp, s.steers(), 0),
+        aleph::reuse::BasePass::Every(4)
+    );
+    let kept = aleph::adaptive::render_base(&scene, &s, 0).unwrap();
     assert_eq!(kept.len(), 2 * 1440 * 1440);
 }
 

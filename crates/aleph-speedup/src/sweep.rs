@@ -844,7 +844,8 @@ fn warm_up_reuse(
                 ..base.clone()
             };
             if f < whole_from {
-                let frame = aleph::adaptive::render_base(&ctx.scene, &settings)?;
+                let own = (f - aleph::reuse::window_start(f, start, k)) as usize;
+                let frame = aleph::adaptive::render_base(&ctx.scene, &settings, own)?;
                 st.windows[bi].push(frame);
             } else {
                 render_reused(&ctx.scene, &settings, budget, st)?;

@@ -38,8 +38,8 @@
 //! weighted mean, counted as Kish's effective number of samples.
 //!
 //! Consecutive frames' base passes draw consecutive runs of one sequence per pixel
-//! ([`base_offset`]): where the camera is still, the K reused base passes are stratified as one
-//! render of K times the samples.
+//! ([`BasePass::offset`]): where the camera is still, the K reused base passes are stratified
+//! as one render of K times the samples.
 //!
 //! # What is tested
 //! Where only the camera moves, light on a surface cannot change, and nothing more is tested.
@@ -68,8 +68,8 @@
 //! # The window
 //! A frame reuses every fresh sample of the K frames before it (a sliding window; fewer at the
 //! animation's start). Its own later passes, where perception asked for samples, are
-//! allocated by the window's *base passes* alone ([`Reused::Base`]), the first [`base_spp`]
-//! samples of each frame, drawn uniformly before anything about the frame was judged: a base
+//! allocated by the window's *base passes* alone ([`Reused::Base`]), the first samples of
+//! each frame ([`BasePass`]), drawn before anything about the frame was judged: a base
 //! pass depends on its frame alone, so a frame's later passes depend on the K frames before it
 //! and its image ([`Reused::All`]) on the 2K frames before it, never on the animation's first.
 //! Any frame renders alone after its warm-up ([`warm_up_start`]: K base passes, then K frames
@@ -158,12 +158,77 @@ pub const BASE_SHARE: f64 = 0.5;
 /// Samples per pixel of a frame's base pass without a budget (the perceptual stop).
 pub const BASE_SPP_UNBUDGETED: u32 = 4;
 
-/// Samples per pixel of the base pass of a frame with fresh budget `budget` spp:
-/// ⌊[`BASE_SHARE`] · budget⌋, at least 1; [`BASE_SPP_UNBUDGETED`] without a budget.
-pub fn base_spp(budget: Option<f64>) -> u32 {
-    match budget {
-        Some(b) => ((BASE_SHARE * b).floor() as u32).max(1),
-        None => BASE_SPP_UNBUDGETED,
+/// A frame's base pass: about [`BASE_SHARE`] of its fresh budget, drawn before anything about
+/// the frame is judged (what the passes of the frames after it are allocated by, see "The
+/// window" above).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BasePass {
+    /// `n` samples in every pixel: ⌊[`BASE_SHARE`] · budget⌋ under a budget of 2 spp or
+    /// more (or one where the frame is judged), [`BASE_SPP_UNBUDGETED`] without a budget.
+    Every(u32),
+    /// Under a budget below 2 spp, where the frame is not judged and its window holds at
+    /// least [`CHECKER_MIN_WINDOW`] frames: one sample in the pixels (x, y) of frame f with
+    /// x + y + f even, a checkerboard that alternates frame by frame (half a sample a pixel),
+    /// so that half the budget is left to level the effective counts, the pixels that reuse
+    /// least first. With one sample everywhere nothing was left for them: on the Lost Empire
+    /// walkthrough (frame 15, 240×150, 1 fresh spp, 4 seeds) the 6.6 % of pixels that reused
+    /// fewer than 4 samples held 61 % of the frame's relative MSE (docs/reuse.md).
+    Checker,
+}
+
+/// The fewest window frames under which a frame's base pass may be a checkerboard
+/// ([`BasePass::Checker`]): a pixel that takes no base sample lives on about one reused sample
+/// a window frame until the level reaches it. On the moving-sphere box (128², 1 fresh spp)
+/// frames 1–3 scored FLIP mean 0.200 / 0.202 / 0.182 with a checkerboard against 0.185 / 0.174
+/// / 0.174 without, and frames 4–11 0.149–0.161 against 0.157–0.166.
+pub const CHECKER_MIN_WINDOW: usize = 4;
+
+impl BasePass {
+    /// The base pass of a frame with fresh budget `budget` spp (`None`: the perceptual stop),
+    /// judged by the perceptual criterion or not (`judged`; see
+    /// [`crate::adaptive::AdaptiveSettings::steers`]), whose window holds `window_frames`
+    /// frames (min(f − first, K) for frame f of an animation from frame `first`).
+    pub fn of(budget: Option<f64>, judged: bool, window_frames: usize) -> BasePass {
+        match budget {
+            Some(b) if b < 2.0 && !judged && window_frames >= CHECKER_MIN_WINDOW => {
+                BasePass::Checker
+            }
+            Some(b) => BasePass::Every(((BASE_SHARE * b).floor() as u32).max(1)),
+            None => BasePass::Every(BASE_SPP_UNBUDGETED),
+        }
+    }
+
+    /// Samples pixel (x, y) of frame `frame` takes.
+    pub fn count(self, frame: i64, (x, y): (usize, usize)) -> u32 {
+        match self {
+            BasePass::Every(n) => n,
+            BasePass::Checker => u32::from((x as i64 + y as i64 + frame).rem_euclid(2) == 0),
+        }
+    }
+
+    /// [`BasePass::count`] of every pixel of a `w` × `h` frame, row-major.
+    pub fn counts(self, frame: i64, (w, h): (usize, usize)) -> Vec<u32> {
+        (0..w * h)
+            .map(|i| self.count(frame, (i % w, i / w)))
+            .collect()
+    }
+
+    /// The index in its pixel's sequences of frame `frame`'s first base-pass sample, the
+    /// same in every pixel. [`BasePass::Every`]`(n)`: frame f takes samples f·s .. f·s + n
+    /// with s = n rounded up to even (each half-buffer keeps its stream), so the K base
+    /// passes a frame reuses are one run of K·s consecutive samples of each pixel's
+    /// sequences, stratified as one render's are: where the camera is still, the window is
+    /// worth as many samples of one render (drawn from sequences of their own, frame by
+    /// frame, they were worth half as many on Lost Empire's textured terrain: relative MSE of
+    /// a 2-spp frame with 15 reused frames 0.0090, as uniform at 8 spp, against 0.0039 at
+    /// 16). [`BasePass::Checker`]: 2 ⌊f / 2⌋, so that a pixel, which takes a sample every
+    /// other frame, takes consecutive points of its half-buffer A stream (sample index f
+    /// would give it every other point, all in one half of a dimension's unit interval).
+    pub fn offset(self, frame: i64) -> u64 {
+        match self {
+            BasePass::Every(n) => (frame as u64).wrapping_mul(n.next_multiple_of(2) as u64),
+            BasePass::Checker => (frame.div_euclid(2) as u64).wrapping_mul(2),
+        }
     }
 }
 
@@ -201,24 +266,12 @@ impl Sample {
 
 /// The seed of every frame's base pass: the render seed's, the same in every frame (not the
 /// frame's own, [`Scene::frame_seed`]), so that the base passes of consecutive frames draw
-/// consecutive runs of one sequence per pixel ([`base_offset`]).
+/// consecutive runs of one sequence per pixel ([`BasePass::offset`]).
 pub fn base_seed(scene: &Scene) -> u64 {
     crate::rng::mix64(scene.settings.seed ^ BASE_SEED_KEY)
 }
 
 const BASE_SEED_KEY: u64 = 0x9E37_79B9_7F4A_7C15;
-
-/// The index in its pixel's sequences of frame `frame`'s first base-pass sample, for a base
-/// pass of `spp` samples: frame f takes samples f·s .. f·s + spp with s = `spp` rounded up to
-/// even (each half-buffer keeps its stream). The K base passes a frame reuses are then one
-/// run of K·s consecutive samples of each pixel's sequences, stratified as one render's are:
-/// where the camera is still, the window is worth as many samples of one render (drawn from
-/// sequences of their own, frame by frame, they were worth half as many on Lost Empire's
-/// textured terrain: relative MSE of a 2-spp frame with 15 reused frames 0.0090, as uniform
-/// at 8 spp, against 0.0039 at 16).
-pub fn base_offset(frame: i64, spp: u32) -> u64 {
-    (frame as u64).wrapping_mul(spp.next_multiple_of(2) as u64)
-}
 
 /// The memory reuse across frames may take by default, bytes (`--reuse-memory`,
 /// [`crate::job::SamplingOptions::reuse_memory_gib`]): the window's frames, their samples and
@@ -281,8 +334,8 @@ pub struct FrameSamples {
     /// `start[i]..start[i + 1]`: pixel i's samples (pixels + 1 entries); the k-th of them is
     /// the pixel's sample number k (even k in half-buffer A).
     start: Vec<u32>,
-    /// Samples per pixel of the base pass: each pixel's first `base` samples.
-    base: u32,
+    /// The frame's base pass: each pixel's first [`BasePass::count`] samples (at most `cap`).
+    base: BasePass,
     /// Per sample: the surface area its source pixel covered at its point (m²; a miss: the
     /// pixel's solid angle, sr), negative where the side facing the camera was the back of the
     /// winding ([`footprint`]). With the sample, 36 bytes.
@@ -316,28 +369,32 @@ fn triangle_table(geo: &crate::geometry::Geometry) -> Vec<Tri> {
 
 impl FrameSamples {
     /// A frame's samples as [`crate::render::render_counts_recorded`] returns them from the
-    /// frame's first pass into `film`, of which each pixel keeps at most its first `cap`
-    /// ([`kept_spp`]; raised to [`MIN_KEPT_SPP`]).
+    /// frame's base pass `base` into `film`, of which each pixel keeps at most its first
+    /// `cap` ([`kept_spp`]; raised to [`MIN_KEPT_SPP`]).
     ///
     /// # Panics
-    /// If `samples` do not match the counts of `film`, or the film did not start at sample 0.
+    /// If the film's pixels do not hold the base pass's counts from sample 0, or `samples`
+    /// do not match them.
     pub fn new(
         scene: &Scene,
-        film: &Film,
+        (film, base): (&Film, BasePass),
         gbuffer: &GBuffer,
         samples: Vec<Sample>,
         cap: u32,
     ) -> FrameSamples {
         let cap = cap.max(MIN_KEPT_SPP);
-        let base = film.pixels.first().map_or(0, |p| p.count());
+        let counts = base.counts(scene.frame.index, (gbuffer.width, gbuffer.height));
         assert!(
-            film.pixels
-                .iter()
-                .all(|p| p.first == 0 && p.count() == base),
-            "a base pass takes the same samples in every pixel, from sample 0"
+            film.len() == counts.len()
+                && film
+                    .pixels
+                    .iter()
+                    .zip(&counts)
+                    .all(|(p, &c)| p.first == 0 && p.count() == c),
+            "a base pass takes its counts in every pixel, from sample 0"
         );
         assert_eq!(
-            base as usize * film.len(),
+            counts.iter().map(|&c| c as usize).sum::<usize>(),
             samples.len(),
             "one recorded sample per sample taken"
         );
@@ -346,12 +403,18 @@ impl FrameSamples {
             view: View::of(gbuffer),
             samples: Vec::new(),
             start: vec![0; film.len() + 1],
-            base: base.min(cap),
+            base,
             area: Vec::new(),
             cap,
         };
-        frame.add_pass(scene, &vec![base; film.len()], &samples);
+        frame.add_pass(scene, &counts, &samples);
         frame
+    }
+
+    /// Pixel i's base-pass samples held (its first ones).
+    fn base_count(&self, i: usize) -> u32 {
+        let w = self.view.width;
+        self.base.count(self.index, (i % w, i / w)).min(self.cap)
     }
 
     /// Appends a later pass of `counts[i]` samples in pixel i, as
@@ -402,7 +465,10 @@ impl FrameSamples {
     /// land alike as [`Reused::Base`] and as [`Reused::All`] (the same samples, each with the
     /// same share of its pixel's footprint).
     fn only_base(&self) -> bool {
-        self.start.windows(2).all(|r| r[1] - r[0] == self.base)
+        self.start
+            .windows(2)
+            .enumerate()
+            .all(|(i, r)| r[1] - r[0] == self.base_count(i))
     }
 }
 
@@ -873,7 +939,8 @@ fn per_sample((l, w): (f64, f64)) -> f64 {
 /// [`HELD_OUTLIER_RATIO`] calls outliers at one pixel. `frames[j]` is frame j's resampled
 /// luminance sum there and its weight (samples), `shares[j]` the share of it kept so far,
 /// `fresh` the fresh samples' luminance sum and count, `floor` the least mean (luminance per
-/// sample) an excess is measured against. Returns whether any frame was dropped.
+/// sample) an excess is measured against. A frame is not dropped where it is all the pixel
+/// holds. Returns whether any frame was dropped.
 fn drop_held_outliers(
     frames: &[(f64, f64)],
     shares: &mut [f64],
@@ -905,8 +972,11 @@ fn drop_held_outliers(
             let excess = k * (l - w * rest) / n;
             (j, excess / rest.max(floor).max(f64::MIN_POSITIVE))
         });
+        // A frame that is all the pixel holds (no fresh sample: a checkerboard base pass,
+        // [`BasePass::Checker`]) stays: dropped, it would leave the pixel empty.
+        let alone = |j: usize| shares[j] * frames[j].1 >= n;
         match worst {
-            Some((j, r)) if r > HELD_OUTLIER_RATIO => {
+            Some((j, r)) if r > HELD_OUTLIER_RATIO && !alone(j) => {
                 shares[j] = 0.0;
                 dropped = true;
             }
@@ -1078,13 +1148,14 @@ fn splat_frame(
     for k in 0..f.start.len() - 1 {
         let range = f.start[k] as usize..f.start[k + 1] as usize;
         // A source pixel's footprint is shared by its samples: all, or those of its base pass.
-        let (n_all, n_base) = (range.len() as f32, f.base as f32);
+        let held = f.base_count(k);
+        let (n_all, n_base) = (range.len() as f32, held as f32);
         for (j, n) in range.enumerate() {
             let s = &f.samples[n];
             if let Some(l) = landing.land(k, n, s) {
                 let w = l.share * l.area;
                 all[l.pixel as usize].add(s.rgb, j % 2 == 0, w / n_all);
-                if j < f.base as usize {
+                if j < held as usize {
                     base[l.pixel as usize].add(s.rgb, j % 2 == 0, w / n_base);
                 }
             }
@@ -1561,6 +1632,66 @@ mod tests {
         // for it, nor is the fresh sample.
         let s = kept(&[1.0, 0.9, 1.1, 1.0, 1.0, 1.2, 0.8], 25.0);
         assert_eq!(s, [1.0; 7]);
+    }
+
+    #[test]
+    fn a_frame_that_is_all_a_pixel_holds_stays() {
+        // No fresh sample (a checkerboard base pass) and one reused frame 100 times the
+        // floor: dropped, it would leave the pixel empty.
+        let mut shares = [1.0];
+        assert!(!drop_held_outliers(
+            &[(100.0, 1.0)],
+            &mut shares,
+            (0.0, 0.0),
+            1.0
+        ));
+        assert_eq!(shares, [1.0]);
+        // Beside a second frame, the same frame is a held firefly.
+        let mut shares = [1.0, 1.0];
+        let frames = [(100.0, 1.0), (1.0, 1.0)];
+        assert!(drop_held_outliers(&frames, &mut shares, (0.0, 0.0), 1.0));
+        assert_eq!(shares, [0.0, 1.0]);
+    }
+
+    #[test]
+    fn a_checkerboard_base_pass_takes_consecutive_points_every_other_frame() {
+        let k = CHECKER_MIN_WINDOW;
+        assert_eq!(BasePass::of(Some(1.0), false, k), BasePass::Checker);
+        assert_eq!(BasePass::of(Some(1.5), false, 15), BasePass::Checker);
+        assert_eq!(BasePass::of(Some(1.0), false, k - 1), BasePass::Every(1));
+        assert_eq!(BasePass::of(Some(1.0), true, k), BasePass::Every(1));
+        assert_eq!(BasePass::of(Some(2.0), false, k), BasePass::Every(1));
+        assert_eq!(BasePass::of(Some(9.0), false, k), BasePass::Every(4));
+        assert_eq!(
+            BasePass::of(None, true, k),
+            BasePass::Every(BASE_SPP_UNBUDGETED)
+        );
+        let (w, h) = (5, 4);
+        let b = BasePass::Checker;
+        let mut taken = vec![Vec::new(); w * h];
+        for f in -3..13i64 {
+            let counts = b.counts(f, (w, h));
+            assert_eq!(counts.iter().sum::<u32>(), 10, "half of 5 × 4, frame {f}");
+            // Even offsets: every base sample goes to half-buffer A's stream, as at 1 spp.
+            assert_eq!(b.offset(f) % 2, 0);
+            for (i, &c) in counts.iter().enumerate() {
+                let neighbour = if i % w + 1 < w { counts[i + 1] } else { 1 - c };
+                assert_eq!(c + neighbour, 1, "a checkerboard, frame {f}");
+                if c == 1 {
+                    // The stream's point index, as the Sobol' sampler takes it (32 bits:
+                    // negative frames wrap).
+                    taken[i].push((b.offset(f) >> 1) as u32);
+                }
+            }
+        }
+        // Each pixel takes a sample every other frame, at consecutive points of its stream
+        // (the frame's own index would give it every other point).
+        for t in &taken {
+            assert_eq!(t.len(), 8);
+            assert!(t.windows(2).all(|p| p[1] == p[0].wrapping_add(1)), "{t:?}");
+        }
+        // Every(n): frame f's run follows frame f − 1's in each stream.
+        assert_eq!(BasePass::Every(3).offset(5), 20);
     }
 
     #[test]

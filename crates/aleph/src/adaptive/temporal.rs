@@ -1,7 +1,9 @@
 //! The adaptive loop of a frame that reuses earlier frames' samples ([`crate::reuse`]).
 //!
-//! 1. The base pass: [`crate::reuse::base_spp`] fresh samples everywhere (half the budget),
-//!    drawn before anything is judged ([`render_base`] renders it alone for a warm-up frame).
+//! 1. The base pass ([`crate::reuse::BasePass`]): half the budget's fresh samples everywhere
+//!    (under a budget below 2 spp, one sample in half the pixels, a checkerboard that
+//!    alternates frame by frame), drawn before anything is judged ([`render_base`] renders it
+//!    alone for a warm-up frame).
 //! 2. The window's frames land in this frame ([`crate::reuse::ReuseWindow::reproject`]); the
 //!    test of each against the fresh samples drops history where light changed on unchanged
 //!    surfaces. The test is repeated after every pass with all the fresh samples so far,
@@ -40,7 +42,7 @@ use super::{
 use crate::film::Film;
 use crate::gbuffer::GBuffer;
 use crate::integrator::{Integrator, Strategy};
-use crate::reuse::{FrameSamples, Reprojected, ReuseWindow, Reused, Tested, base_spp};
+use crate::reuse::{BasePass, FrameSamples, Reprojected, ReuseWindow, Reused, Tested};
 use crate::sampler::SampleStreams;
 use crate::scene::Scene;
 use crate::velocity::velocity_from_gbuffer;
@@ -63,16 +65,21 @@ pub const FLOOR_SHARE: f64 = 0.75;
 /// Most passes after the first.
 const MAX_PASSES: usize = 8;
 
-/// The base pass of `scene`'s current frame (its G-buffer and [`crate::reuse::base_spp`]
-/// uniform samples per pixel, in two independent half-buffers), as later frames reuse it:
+/// The base pass of `scene`'s current frame (its G-buffer and the samples of
+/// [`crate::reuse::BasePass`], in two independent half-buffers), as later frames reuse it:
 /// the same samples [`render_reusing`] draws first, so a warm-up frame rendered this way
-/// gives a window equal to the sequence's.
+/// gives a window equal to the sequence's. `window_frames`: the frames the frame's own window
+/// would hold in the sequence (min(f − first, K); [`crate::reuse::BasePass::of`]).
 ///
 /// # Errors
 /// As [`render_reusing`].
-pub fn render_base(scene: &Scene, s: &AdaptiveSettings) -> Result<FrameSamples, AdaptiveError> {
+pub fn render_base(
+    scene: &Scene,
+    s: &AdaptiveSettings,
+    window_frames: usize,
+) -> Result<FrameSamples, AdaptiveError> {
     s.validate()?;
-    Ok(base_pass(scene, s, &|_| {})?.1)
+    Ok(base_pass(scene, s, window_frames, &|_| {})?.1)
 }
 
 /// The base pass in a new loop state, the frame's samples as later frames reuse them, and its
@@ -80,21 +87,22 @@ pub fn render_base(scene: &Scene, s: &AdaptiveSettings) -> Result<FrameSamples, 
 fn base_pass(
     scene: &Scene,
     s: &AdaptiveSettings,
+    window_frames: usize,
     sample_progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(LoopState, FrameSamples, GBuffer), AdaptiveError> {
     let gbuffer = GBuffer::render(scene);
     let mut st = LoopState::new(scene, s)?;
-    let spp = base_spp(s.budget_spp);
-    let counts = vec![spp; st.film.len()];
+    let base = BasePass::of(s.budget_spp, s.steers(), window_frames);
+    let counts = base.counts(scene.frame.index, (gbuffer.width, gbuffer.height));
     let pass = crate::render::Pass {
         counts: &counts,
         seed: crate::reuse::base_seed(scene),
         streams: SampleStreams::Halves,
-        offset: crate::reuse::base_offset(scene.frame.index, spp),
+        offset: base.offset(scene.frame.index),
     };
     let samples = st.render_recorded(scene, &integrator_of(scene), &pass, sample_progress);
     let cap = crate::reuse::kept_spp(st.film.len(), s.reuse_frame_memory);
-    let frame = FrameSamples::new(scene, &st.film, &gbuffer, samples, cap);
+    let frame = FrameSamples::new(scene, (&st.film, base), &gbuffer, samples, cap);
     Ok((st, frame, gbuffer))
 }
 
@@ -127,7 +135,7 @@ pub fn render_reusing(
         ));
     }
     let start = Instant::now();
-    let (st, base, gbuffer) = base_pass(scene, s, sample_progress)?;
+    let (st, base, gbuffer) = base_pass(scene, s, window.len(), sample_progress)?;
     let velocity = velocity_from_gbuffer(scene, &gbuffer);
     let t_reuse = Instant::now();
     let reprojected = window.reproject(scene, &gbuffer);

@@ -442,7 +442,9 @@ fn render_sequence(
         let (settings, look) = job.settings(&frame.scene, Some(frame.adaptation))?;
         if frame.index < whole_from {
             // A warm-up frame whose base pass alone the frames after it depend on.
-            window.push(crate::adaptive::render_base(&frame.scene, &settings)?);
+            let own =
+                (frame.index - crate::reuse::window_start(frame.index, anim_first, k)) as usize;
+            window.push(crate::adaptive::render_base(&frame.scene, &settings, own)?);
             continue;
         }
         if frame.index < first {
