@@ -844,7 +844,7 @@ fn warm_up_reuse(
                 ..base.clone()
             };
             if f < whole_from {
-                let own = (f - aleph::reuse::window_start(f, start, k)) as usize;
+                let own = aleph::reuse::window_frames(f, start, k);
                 let frame = aleph::adaptive::render_base(&ctx.scene, &settings, own)?;
                 st.windows[bi].push(frame);
             } else {

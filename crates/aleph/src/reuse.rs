@@ -119,6 +119,12 @@ pub fn window_start(frame: i64, first: i64, k: u32) -> i64 {
     (frame - k as i64).max(first)
 }
 
+/// Frames the window of frame `frame` holds under a window of `k` (the animation's first frame
+/// is `first`): min(frame − first, K), what its base pass depends on ([`BasePass::of`]).
+pub fn window_frames(frame: i64, first: i64, k: u32) -> usize {
+    (frame - window_start(frame, first, k)) as usize
+}
+
 /// The first frame that frame `frame` depends on under a window of `k` (the animation's
 /// first frame is `first`): its image reuses all the samples of the K frames before it, whose
 /// later passes were allocated by the base passes of the K frames before each, so a frame
@@ -411,10 +417,17 @@ impl FrameSamples {
         frame
     }
 
-    /// Pixel i's base-pass samples held (its first ones).
+    /// Pixel i's base-pass samples held (its first ones). Called for every pixel of every
+    /// window frame at each landing: (x, y) is found only for a checkerboard.
     fn base_count(&self, i: usize) -> u32 {
-        let w = self.view.width;
-        self.base.count(self.index, (i % w, i / w)).min(self.cap)
+        let n = match self.base {
+            BasePass::Every(n) => n,
+            BasePass::Checker => {
+                let w = self.view.width;
+                self.base.count(self.index, (i % w, i / w))
+            }
+        };
+        n.min(self.cap)
     }
 
     /// Appends a later pass of `counts[i]` samples in pixel i, as

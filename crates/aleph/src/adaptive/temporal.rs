@@ -69,7 +69,7 @@ const MAX_PASSES: usize = 8;
 /// [`crate::reuse::BasePass`], in two independent half-buffers), as later frames reuse it:
 /// the same samples [`render_reusing`] draws first, so a warm-up frame rendered this way
 /// gives a window equal to the sequence's. `window_frames`: the frames the frame's own window
-/// would hold in the sequence (min(f − first, K); [`crate::reuse::BasePass::of`]).
+/// would hold in the sequence ([`crate::reuse::window_frames`]).
 ///
 /// # Errors
 /// As [`render_reusing`].

@@ -442,8 +442,7 @@ fn render_sequence(
         let (settings, look) = job.settings(&frame.scene, Some(frame.adaptation))?;
         if frame.index < whole_from {
             // A warm-up frame whose base pass alone the frames after it depend on.
-            let own =
-                (frame.index - crate::reuse::window_start(frame.index, anim_first, k)) as usize;
+            let own = crate::reuse::window_frames(frame.index, anim_first, k);
             window.push(crate::adaptive::render_base(&frame.scene, &settings, own)?);
             continue;
         }
