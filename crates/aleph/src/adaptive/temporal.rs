@@ -445,46 +445,26 @@ fn water_fill(alloc: &mut Allocation, film: &Film, ratio: &[f32], remaining: u64
     if open.is_empty() || spare == 0 {
         return;
     }
-    let cost = |level: f64| -> u64 {
-        open.par_iter()
-            .map(|&(_, eff, room)| ((level - eff).ceil().max(0.0) as u64).min(room as u64))
-            .sum()
-    };
-    let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    while cost(hi) <= spare && hi < 1e9 {
-        lo = hi;
-        hi *= 2.0;
-    }
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        // The interval is down to adjacent doubles: no later step moves `lo`.
-        if mid == lo || mid == hi {
-            break;
-        }
-        if cost(mid) <= spare {
-            lo = mid
-        } else {
-            hi = mid
-        }
-    }
-    let take = |level: f64, eff: f64, room: u32| ((level - eff).ceil().max(0.0) as u32).min(room);
-    for &(i, eff, room) in &open {
-        let c = take(lo, eff, room);
+    let (lo, hi) = water_level(&open, spare);
+    let mut spent = 0;
+    for o in &open {
+        let c = take_to(lo, o);
         if c > 0 {
-            alloc.want[i] += c;
-            alloc.reopen[i] = true;
+            alloc.want[o.0] += c as u32;
+            alloc.reopen[o.0] = true;
+            spent += c;
         }
     }
     // The level rises in steps (every pixel of one effective count at once: a sky of exactly
     // K + 1 frames' samples); what the last step leaves goes one each to the pixels the next
     // step would raise, fewest effective samples first.
-    let mut left = spare.saturating_sub(cost(lo));
+    let mut left = spare.saturating_sub(spent);
     if left == 0 {
         return;
     }
     let mut next: Vec<(usize, f64)> = open
         .iter()
-        .filter(|&&(_, eff, room)| take(hi, eff, room) > take(lo, eff, room))
+        .filter(|o| take_to(hi, o) > take_to(lo, o))
         .map(|&(i, eff, _)| (i, eff))
         .collect();
     next.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
@@ -498,6 +478,49 @@ fn water_fill(alloc: &mut Allocation, film: &Film, ratio: &[f32], remaining: u64
     }
 }
 
+/// The fresh samples a pixel `(i, effective count, room)` of [`water_fill`] takes to reach
+/// `level`: ⌈level − n_eff⌉, at least 0, at most its room. Monotone in `level` (a rounded
+/// subtraction is).
+fn take_to(level: f64, &(_, eff, room): &(usize, f64, u32)) -> u64 {
+    ((level - eff).ceil().max(0.0) as u64).min(room as u64)
+}
+
+/// The water level of [`water_fill`] under `spare` samples, bracketed by bisection: `(lo,
+/// hi)` with cost(lo) ≤ `spare` < cost(hi) (or `hi` at the doubling's cap of 10⁹), down to
+/// adjacent doubles, cost being the samples every pixel of `open` takes ([`take_to`]). A
+/// pixel that takes as many at `lo` as at `hi` takes that many at any level between (the
+/// count is monotone), so each step evaluates only the pixels whose count still differs: the
+/// same `lo` and `hi` as evaluating every pixel at every step, in a few passes over them
+/// instead of about 60.
+fn water_level(open: &[(usize, f64, u32)], spare: u64) -> (f64, f64) {
+    let cost = |level: f64| -> u64 { open.par_iter().map(|o| take_to(level, o)).sum() };
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    while cost(hi) <= spare && hi < 1e9 {
+        lo = hi;
+        hi *= 2.0;
+    }
+    let (mut active, mut settled) = (open.to_vec(), 0u64);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        // The interval is down to adjacent doubles: no later step moves `lo`.
+        if mid == lo || mid == hi {
+            break;
+        }
+        active.retain(|o| {
+            let at_lo = take_to(lo, o);
+            let same = at_lo == take_to(hi, o);
+            settled += if same { at_lo } else { 0 };
+            !same
+        });
+        if settled + active.iter().map(|o| take_to(mid, o)).sum::<u64>() <= spare {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    (lo, hi)
+}
+
 fn reuse_report(film: &Film, frames: usize, time: Duration) -> ReuseReport {
     let n = film.len().max(1) as f64;
     let weights: Vec<f64> = (0..film.len()).map(|i| film.history_weight(i)).collect();
@@ -506,5 +529,59 @@ fn reuse_report(film: &Film, frames: usize, time: Duration) -> ReuseReport {
         mean_history_spp: weights.iter().sum::<f64>() / n,
         reused_fraction: weights.iter().filter(|&&w| w > 0.0).count() as f64 / n,
         time,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    /// The bisection of [`water_level`] as it was written first: every pixel evaluated at
+    /// every step.
+    fn water_level_every_pixel(open: &[(usize, f64, u32)], spare: u64) -> (f64, f64) {
+        let cost = |level: f64| -> u64 { open.iter().map(|o| take_to(level, o)).sum() };
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        while cost(hi) <= spare && hi < 1e9 {
+            lo = hi;
+            hi *= 2.0;
+        }
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if mid == lo || mid == hi {
+                break;
+            }
+            if cost(mid) <= spare {
+                lo = mid
+            } else {
+                hi = mid
+            }
+        }
+        (lo, hi)
+    }
+
+    #[test]
+    fn the_water_level_is_the_full_bisections() {
+        let mut rng = Rng::new(7, 0);
+        for case in 0..200 {
+            let n = 1 + (rng.uniform() * 400.0) as usize;
+            // Effective counts in steps of whole frames (ties) or arbitrary, rooms from 1 up.
+            let open: Vec<(usize, f64, u32)> = (0..n)
+                .map(|i| {
+                    let eff = if case % 2 == 0 {
+                        (rng.uniform() * 12.0).floor() as f64
+                    } else {
+                        rng.uniform() as f64 * 40.0
+                    };
+                    (i, eff, 1 + (rng.uniform() * 9.0) as u32)
+                })
+                .collect();
+            let spare = (rng.uniform() * 6.0 * n as f32) as u64;
+            let fast = water_level(&open, spare);
+            assert_eq!(fast, water_level_every_pixel(&open, spare), "case {case}");
+            let cost = |level: f64| -> u64 { open.iter().map(|o| take_to(level, o)).sum() };
+            assert!(cost(fast.0) <= spare);
+            assert!(cost(fast.1) > spare || fast.1 >= 1e9, "case {case}");
+        }
     }
 }
