@@ -508,9 +508,11 @@ fn water_level(open: &[(usize, f64, u32)], spare: u64) -> (f64, f64) {
         }
         active.retain(|o| {
             let at_lo = take_to(lo, o);
-            let same = at_lo == take_to(hi, o);
-            settled += if same { at_lo } else { 0 };
-            !same
+            if at_lo == take_to(hi, o) {
+                settled += at_lo;
+                return false;
+            }
+            true
         });
         if settled + active.iter().map(|o| take_to(mid, o)).sum::<u64>() <= spare {
             lo = mid
