@@ -30,6 +30,11 @@
 //!   within [`DIRECT_TOLERANCE`] of what it was: a moving shadow or a light uncovered changes
 //!   it. The share kept falls linearly with the change.
 //!
+//! Beside a step in depth, where the two sides have moved against each other since a window
+//! frame, that frame's samples may miss a strip of the pixel: the frame is weighed there by
+//! its mean squared error, its bias bounded from the parallax and the contrast across the step
+//! (`steps`, [`STEP_BIAS`]).
+//!
 //! Each sample counts with the surface area it stands for (its source pixel's footprint shared
 //! among that pixel's samples) over the area a pixel covers there now: a surface seen edge-on
 //! before and face-on now got few samples per area, and a pixel where it meets a surface seen
@@ -88,7 +93,9 @@ use rayon::prelude::*;
 use std::collections::VecDeque;
 
 mod spread;
+mod steps;
 pub use spread::SPREAD_RADIUS;
+pub use steps::STEP_BIAS;
 
 /// Largest distance of a neighbour's surface point from x's tangent plane, as a fraction of
 /// x's depth.
@@ -292,9 +299,10 @@ pub const SAMPLE_BYTES: usize = std::mem::size_of::<Sample>() + std::mem::size_o
 
 /// Bytes a pixel takes in each window frame besides its kept samples: the frame's [`View`]
 /// record (with its direct-light signature) and, while the frame lands in the current one, two
-/// layers of sums ([`Reprojected`]: the base passes and every sample) with their luminance.
+/// layers of sums ([`Reprojected`]: the base passes and every sample) with their luminance,
+/// and the parallax at steps in depth ([`steps::parallax`]).
 pub const RECORD_BYTES: usize = std::mem::size_of::<Px>()
-    + std::mem::size_of::<f32>()
+    + 2 * std::mem::size_of::<f32>()
     + 2 * (std::mem::size_of::<Part>() + std::mem::size_of::<(f64, f64)>());
 
 /// Samples a pixel keeps at least (one for each half-buffer).
@@ -319,7 +327,7 @@ pub fn frame_memory(k: u32, memory: u64) -> u64 {
 /// first ones (the base pass's, then later passes' in order), as many as fit in `frame_memory`
 /// bytes after the pixels' records ([`RECORD_BYTES`]); an even number (as many for each
 /// half-buffer) and at least [`MIN_KEPT_SPP`]. With the default memory and window
-/// ([`frame_memory`] of 512 MiB): 382 at 240×160, 52 at 512², 2 at 1920×1080.
+/// ([`frame_memory`] of 512 MiB): 382 at 240×160, 50 at 512², 2 at 1920×1080.
 pub fn kept_spp(pixels: usize, frame_memory: u64) -> u32 {
     let per_pixel = (frame_memory / pixels.max(1) as u64).saturating_sub(RECORD_BYTES as u64);
     let n = (per_pixel / SAMPLE_BYTES as u64).min(u32::MAX as u64);
@@ -616,12 +624,19 @@ impl ReuseWindow {
             .collect();
         let view = View::of(g);
         let tris = self.tris.get_or_init(|| triangle_table(&scene.geometry));
-        let (base, all): (Vec<_>, Vec<_>) = self
+        let splats: Vec<_> = self
             .frames
             .par_iter()
             .map(|f| splat_frame(scene, (g, &view), f, (&shutter, &angles, tris)))
-            .unzip();
+            .collect();
+        let (mut base, mut all, mut parallax) = (Vec::new(), Vec::new(), Vec::new());
+        for (b, a, p) in splats {
+            base.push(b);
+            all.push(a);
+            parallax.push(p);
+        }
         Reprojected {
+            parallax,
             base_is_all: self.frames.iter().all(FrameSamples::only_base),
             base: Layer::new(base),
             all: Layer::new(all),
@@ -649,6 +664,9 @@ pub struct Reprojected {
     still_light: bool,
     /// What each pixel sees, for spreading held fireflies' light over its surface.
     surfaces: spread::Surfaces,
+    /// Per window frame, per pixel: how far the surfaces on the two sides of a step in depth
+    /// through the pixel moved against each other since that frame, px ([`steps::parallax`]).
+    parallax: Vec<Vec<f32>>,
 }
 
 /// Which samples of the window's frames: what a frame's fresh samples are allocated by, or
@@ -809,6 +827,7 @@ impl Reprojected {
             }
             shares.push(share);
         }
+        steps::weigh(layer, &self.parallax, &fresh_y, (w, h), &mut shares);
         let history = keep(layer, &shares, fresh, &fresh_y, &self.surfaces);
         Tested { history, bias }
     }
@@ -1139,10 +1158,10 @@ fn splat_frame(
     (g, view): (&GBuffer, &View),
     f: &FrameSamples,
     (shutter, angles, tris): (&Shutter, &[f32], &[Tri]),
-) -> (Vec<Part>, Vec<Part>) {
+) -> (Vec<Part>, Vec<Part>, Vec<f32>) {
     let then = scene.camera_at(f.view.time);
     let cos_normal = NORMAL_TOLERANCE_DEG.to_radians().cos();
-    let covered = covered_by(scene, g, f, (&then, shutter.centre()), cos_normal);
+    let (covered, parallax) = covered_by(scene, g, f, (&then, shutter.centre()), cos_normal);
     let landing = Landing {
         scene,
         g: view,
@@ -1174,7 +1193,7 @@ fn splat_frame(
             }
         }
     }
-    (base, all)
+    (base, all, parallax)
 }
 
 /// Where a sample lands ([`Landing::land`]): the pixel, the share kept (direct light) and the
@@ -1230,19 +1249,21 @@ fn triangle_normal(geo: &crate::geometry::Geometry, tri: u32) -> Vec3 {
 /// door frame showed a row of dark pixels), takes none of them. Taken as:
 /// the surface points at the centres of the pixel and its 8 neighbours (inside the image),
 /// carried to `f`'s instant, were each seen by `f` ([`seen_by`]). `cams` are the cameras at
-/// `f`'s instant and at `g`'s.
+/// `f`'s instant and at `g`'s. Also returns the pixels' parallax since `f` at steps in depth
+/// ([`steps::parallax`]).
 fn covered_by(
     scene: &Scene,
     g: &GBuffer,
     f: &FrameSamples,
     cams: (&Camera, &Camera),
     cos_normal: f32,
-) -> Vec<bool> {
+) -> (Vec<bool>, Vec<f32>) {
     let (w, h) = (g.width, g.height);
-    let seen: Vec<bool> = (0..w * h)
+    let (seen, moved): (Vec<bool>, Vec<Option<Vec2>>) = (0..w * h)
         .into_par_iter()
         .map(|i| seen_by(scene, g, i, f, cams, cos_normal))
-        .collect();
+        .unzip();
+    let parallax = steps::parallax((w, h), |i| g.front[i].1, &moved);
     // Each pixel and its left and right neighbours, then those rows above and below.
     let across: Vec<bool> = seen
         .par_chunks(w)
@@ -1250,20 +1271,23 @@ fn covered_by(
             (0..w).map(move |x| row[x.saturating_sub(1)..(x + 2).min(w)].iter().all(|&b| b))
         })
         .collect();
-    (0..w * h)
+    let covered = (0..w * h)
         .into_par_iter()
         .map(|i| {
             let y = i / w;
             across[i] && (y == 0 || across[i - w]) && (y + 1 == h || across[i + w])
         })
-        .collect()
+        .collect();
+    (covered, parallax)
 }
 
 /// Whether frame `f` saw the surface point at the centre of `g`'s pixel `i` as it looks now:
 /// the view of it turned by no more than its material allows, and carried to `f`'s instant it
 /// projects into a pixel of `f` that, or one of whose 4-neighbours, saw the same object and
 /// material there (within [`PLANE_TOLERANCE`] · depth of its tangent plane, normals within
-/// [`NORMAL_TOLERANCE_DEG`]); the background where `f` saw the background.
+/// [`NORMAL_TOLERANCE_DEG`]); the background where `f` saw the background. Also returns the
+/// point's displacement from the pixel's centre to where it projects in `f` (raster px), where
+/// it projects.
 fn seen_by(
     scene: &Scene,
     g: &GBuffer,
@@ -1271,18 +1295,20 @@ fn seen_by(
     f: &FrameSamples,
     (then, here): (&Camera, &Camera),
     cos_normal: f32,
-) -> bool {
+) -> (bool, Option<Vec2>) {
     let o = &f.view;
     let Some(sight) = g.sight_by(scene, i, o.time, (then, here)) else {
-        return false;
+        return (false, None);
     };
+    let r = sight.raster;
+    let centre = Vec2::new((i % g.width) as f32 + 0.5, (i / g.width) as f32 + 0.5);
+    let moved = Some(r - centre);
     // A view-dependent surface seen from too far round is not reusable (see `land`).
     if sight.turn > g.reuse_angle[i] {
-        return false;
+        return (false, moved);
     }
-    let r = sight.raster;
     if !(r.x >= 0.0 && r.y >= 0.0 && r.x < o.width as f32 && r.y < o.height as f32) {
-        return false;
+        return (false, moved);
     }
     // In range, the truncation is the floor.
     let (kx, ky) = (r.x as usize, r.y as usize);
@@ -1294,7 +1320,7 @@ fn seen_by(
         (ky > 0).then(|| k - o.width),
         (ky + 1 < o.height).then(|| k + o.width),
     ];
-    around.into_iter().flatten().any(|c| {
+    let seen = around.into_iter().flatten().any(|c| {
         let c = &o.px[c];
         if c.object != g.object[i] || c.material != g.material[i] {
             return false;
@@ -1304,7 +1330,8 @@ fn seen_by(
         }
         (c.position - sight.point).dot(sight.normal).abs() <= PLANE_TOLERANCE * c.depth
             && c.normal.dot(sight.normal) >= cos_normal
-    })
+    });
+    (seen, moved)
 }
 
 /// What a sample of frame `f` needs to land in the frame whose G-buffer is `g`.
