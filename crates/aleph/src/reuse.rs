@@ -775,8 +775,9 @@ impl Reprojected {
     }
 
     /// Tests each reprojected frame's `reused` samples against `fresh` (the current frame's
-    /// fresh samples so far; see the module docs): weights it down where they disagree, and
-    /// bounds the bias of what is kept.
+    /// fresh samples so far; see the module docs): weights it down where they disagree and,
+    /// beside steps in depth, by the bias its parallax may carry ([`STEP_BIAS`]), and bounds
+    /// the bias of what is kept.
     pub fn test(&self, fresh: &Film, reused: Reused) -> Tested {
         let layer = match reused {
             Reused::Base => &self.base,
