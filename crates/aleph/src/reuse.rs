@@ -636,6 +636,7 @@ impl ReuseWindow {
             parallax.push(p);
         }
         Reprojected {
+            stepped: steps::stepped(&parallax, g.width * g.height),
             parallax,
             base_is_all: self.frames.iter().all(FrameSamples::only_base),
             base: Layer::new(base),
@@ -667,6 +668,8 @@ pub struct Reprojected {
     /// Per window frame, per pixel: how far the surfaces on the two sides of a step in depth
     /// through the pixel moved against each other since that frame, px ([`steps::parallax`]).
     parallax: Vec<Vec<f32>>,
+    /// The pixels with a parallax to any window frame ([`steps::stepped`]).
+    stepped: Vec<u32>,
 }
 
 /// Which samples of the window's frames: what a frame's fresh samples are allocated by, or
@@ -828,7 +831,8 @@ impl Reprojected {
             }
             shares.push(share);
         }
-        steps::weigh(layer, &self.parallax, &fresh_y, (w, h), &mut shares);
+        let steps = (&self.parallax[..], &self.stepped[..]);
+        steps::weigh(layer, steps, &fresh_y, (w, h), &mut shares);
         let history = keep(layer, &shares, fresh, &fresh_y, &self.surfaces);
         Tested { history, bias }
     }

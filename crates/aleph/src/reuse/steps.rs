@@ -61,39 +61,52 @@ pub(super) fn parallax(
         .collect()
 }
 
+/// The pixels with a parallax to any window frame (`parallax[j][i]` > 0, [`parallax`]), in
+/// order: the only ones [`weigh`] changes.
+pub(super) fn stepped(parallax: &[Vec<f32>], n: usize) -> Vec<u32> {
+    (0..n as u32)
+        .into_par_iter()
+        .filter(|&i| parallax.iter().any(|p| p[i as usize] > 0.0))
+        .collect()
+}
+
 /// Multiplies `shares[j][i]` (window frame j's share at pixel i, as the test left it; every
 /// share 1 where `shares` is empty) by the share of least mean squared error at the pixels
-/// with a parallax (`parallax[j][i]` > 0, [`parallax`]); see the module docs. `fresh` holds
-/// the frame's fresh samples' luminance moments, `layer` the reused ones'.
+/// with a parallax (`parallax[j][i]` > 0, [`parallax`]; `stepped` lists them, [`stepped`]);
+/// see the module docs. `fresh` holds the frame's fresh samples' luminance moments, `layer`
+/// the reused ones'.
 pub(super) fn weigh(
     layer: &Layer,
-    parallax: &[Vec<f32>],
+    (parallax, stepped): (&[Vec<f32>], &[u32]),
     fresh: &[Moments],
     (w, h): (usize, usize),
     shares: &mut Vec<Vec<f64>>,
 ) {
+    if stepped.is_empty() {
+        return;
+    }
     if shares.is_empty() {
         *shares = vec![vec![1.0; w * h]; layer.frames.len()];
     }
-    let stepped: Vec<bool> = (0..w * h)
-        .into_par_iter()
-        .map(|i| parallax.iter().any(|p| p[i] > 0.0))
-        .collect();
-    let across = across_steps(layer, fresh, (w, h), &stepped);
-    for ((share, lum), parallax) in shares.iter_mut().zip(&layer.lum).zip(parallax) {
-        share.par_iter_mut().enumerate().for_each(|(i, k)| {
-            let d = parallax[i] as f64;
-            if d <= 0.0 || *k <= 0.0 || lum[i].1 <= 0.0 {
-                return;
-            }
-            let (contrast, s2) = across[i];
-            let b = STEP_BIAS * d.min(1.0) * contrast;
-            let var = s2 / lum[i].1;
-            if b > 0.0 && var.is_finite() {
-                *k *= var / (var + b * b);
+    let across = across_steps(layer, fresh, (w, h), stepped);
+    shares
+        .par_iter_mut()
+        .zip(&layer.lum)
+        .zip(parallax)
+        .for_each(|((share, lum), parallax)| {
+            for (&i, &(contrast, s2)) in stepped.iter().zip(&across) {
+                let (i, k) = (i as usize, &mut share[i as usize]);
+                let d = parallax[i] as f64;
+                if d <= 0.0 || *k <= 0.0 || lum[i].1 <= 0.0 {
+                    continue;
+                }
+                let b = STEP_BIAS * d.min(1.0) * contrast;
+                let var = s2 / lum[i].1;
+                if b > 0.0 && var.is_finite() {
+                    *k *= var / (var + b * b);
+                }
             }
         });
-    }
 }
 
 /// The 3 × 3 neighbourhood of pixel `i` in a `w` × `h` frame, clipped to it.
@@ -103,21 +116,23 @@ fn around(i: usize, (w, h): (usize, usize)) -> impl Iterator<Item = usize> {
         .flat_map(move |yy| (x.saturating_sub(1)..(x + 2).min(w)).map(move |xx| yy * w + xx))
 }
 
-/// Per `stepped` pixel: the range of the 3 × 3 pixels' mean luminance (every sample, fresh
-/// and reused; the contrast across the step) and the per-sample luminance variance, at least
-/// the 3 × 3 pixels' mean of it (a pixel whose samples all fell on one side shows none, though
-/// its mean varies with them); (0, 0) elsewhere.
+/// Per `stepped` pixel, in order: the range of the 3 × 3 pixels' mean luminance (every
+/// sample, fresh and reused; the contrast across the step) and the per-sample luminance
+/// variance, at least the 3 × 3 pixels' mean of it (a pixel whose samples all fell on one side
+/// shows none, though its mean varies with them).
 fn across_steps(
     layer: &Layer,
     fresh: &[Moments],
     size: (usize, usize),
-    stepped: &[bool],
+    stepped: &[u32],
 ) -> Vec<(f64, f64)> {
     let n = size.0 * size.1;
-    let wanted: Vec<bool> = (0..n)
-        .into_par_iter()
-        .map(|i| around(i, size).any(|c| stepped[c]))
-        .collect();
+    let mut wanted = vec![false; n];
+    for &i in stepped {
+        for c in around(i as usize, size) {
+            wanted[c] = true;
+        }
+    }
     let stats: Vec<(f64, f64)> = (0..n)
         .into_par_iter()
         .map(|i| {
@@ -128,20 +143,17 @@ fn across_steps(
             }
         })
         .collect();
-    (0..n)
-        .into_par_iter()
-        .map(|i| {
-            if !stepped[i] {
-                return (0.0, 0.0);
-            }
+    stepped
+        .par_iter()
+        .map(|&i| {
             let (mut lo, mut hi, mut s2, mut k) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0);
-            for c in around(i, size) {
+            for c in around(i as usize, size) {
                 lo = lo.min(stats[c].0);
                 hi = hi.max(stats[c].0);
                 s2 += stats[c].1;
                 k += 1.0;
             }
-            (hi - lo, stats[i].1.max(s2 / k))
+            (hi - lo, stats[i as usize].1.max(s2 / k))
         })
         .collect()
 }
