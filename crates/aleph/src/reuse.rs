@@ -300,7 +300,7 @@ pub const SAMPLE_BYTES: usize = std::mem::size_of::<Sample>() + std::mem::size_o
 /// Bytes a pixel takes in each window frame besides its kept samples: the frame's [`View`]
 /// record (with its direct-light signature) and, while the frame lands in the current one, two
 /// layers of sums ([`Reprojected`]: the base passes and every sample) with their luminance,
-/// and the parallax at steps in depth ([`steps::parallax`]).
+/// and the parallax at steps in depth (see [`STEP_BIAS`]).
 pub const RECORD_BYTES: usize = std::mem::size_of::<Px>()
     + 2 * std::mem::size_of::<f32>()
     + 2 * (std::mem::size_of::<Part>() + std::mem::size_of::<(f64, f64)>());

@@ -1,5 +1,5 @@
-//! Reused frames weighed at silhouettes by the bias they may carry there ([`super`], "Steps in
-//! depth").
+//! Reused frames weighed at silhouettes by the bias they may carry there ([`super`]; measured
+//! in docs/reuse.md, "Silhouettes weighed by their bias").
 //!
 //! Where the camera translates, the surfaces on the two sides of a step in depth move against
 //! each other: d px since a window frame (the parallax, [`parallax`]). That frame's samples in
@@ -24,7 +24,7 @@ use rayon::prelude::*;
 /// module docs): a strip of d px misses ½ ΔY on average where the pixel is half covered.
 /// Measured (walkthrough frames 32–39, video JOD at 2 / 4 / 8 / 16 / 32 / 64 fresh spp, before
 /// 9.382 / 9.635 / 9.783 / 9.831 / 9.837 / 9.852): ¼ gives 9.388 / 9.638 / 9.790 / 9.846 /
-/// 9.857 / 9.873 but leaves a dark slab's silhouettes 0.9 % too dark (z = −7.6 in the test
+/// 9.857 / 9.873 but leaves a dark slab's silhouettes 0.86 % too dark (z = −7.6 in the test
 /// `silhouettes_keep_their_mean_where_the_two_sides_move_apart`); ½ gives 9.384 / 9.633 /
 /// 9.788 / 9.841 / 9.856 / 9.874 and passes it.
 pub const STEP_BIAS: f64 = 0.5;
