@@ -1615,15 +1615,19 @@ impl Landing<'_> {
 
     /// The 4-neighbours of pixel `i` inside the image.
     fn neighbours(&self, i: usize) -> [Option<usize>; 4] {
-        let (w, h) = (self.g.width, self.g.height);
-        let (x, y) = (i % w, i / w);
-        [
-            (x > 0).then(|| i - 1),
-            (x + 1 < w).then(|| i + 1),
-            (y > 0).then(|| i - w),
-            (y + 1 < h).then(|| i + w),
-        ]
+        four_neighbours(i, (self.g.width, self.g.height))
     }
+}
+
+/// The 4-neighbours of pixel `i` of a `w` × `h` image, inside it: left, right, above, below.
+fn four_neighbours(i: usize, (w, h): (usize, usize)) -> [Option<usize>; 4] {
+    let (x, y) = (i % w, i / w);
+    [
+        (x > 0).then(|| i - 1),
+        (x + 1 < w).then(|| i + 1),
+        (y > 0).then(|| i - w),
+        (y + 1 < h).then(|| i + w),
+    ]
 }
 
 /// The share of a sample's weight kept when the direct-light signatures

@@ -17,7 +17,7 @@
 //! the frame's mean squared error rather than its variance alone, so a frame of few samples,
 //! whose noise hides the bias, keeps its history and one of many samples gives it up.
 
-use super::{Layer, Moments};
+use super::{Layer, Moments, four_neighbours};
 use rayon::prelude::*;
 
 /// The bias bound's share of the contrast across a step times the strip's width (see the
@@ -45,14 +45,8 @@ pub(super) fn parallax(
             let Some(here) = moved[i].filter(|_| step(i)) else {
                 return 0.0;
             };
-            let (x, y) = (i % w, i / w);
-            let four = [
-                (x > 0).then(|| i - 1),
-                (x + 1 < w).then(|| i + 1),
-                (y > 0).then(|| i - w),
-                (y + 1 < h).then(|| i + w),
-            ];
-            four.into_iter()
+            four_neighbours(i, (w, h))
+                .into_iter()
                 .flatten()
                 .filter_map(|n| moved[n])
                 .map(|m| m.distance(here))
