@@ -94,7 +94,8 @@ pub struct GBuffer {
     /// not. 0 for the background; NaN where no moving object comes near the way from the
     /// point to any of the light samples (nor is the point on one): the direct light there is
     /// that of the static scene, the same in every frame, and costs no shadow ray. Empty when
-    /// nothing but the camera moves (no moving instance).
+    /// nothing but the camera moves (no moving instance), and in a G-buffer made by
+    /// [`GBuffer::render_aovs`].
     pub direct: Vec<f32>,
     /// Whether each pixel straddles an edge: a 4-neighbour sees another object or material, or
     /// a point off this pixel's tangent plane by more than [`EDGE_PLANE_TOLERANCE`] of its depth.
@@ -113,16 +114,35 @@ pub struct GBuffer {
 /// point makes the pixel an edge.
 pub const EDGE_PLANE_TOLERANCE: f32 = 0.01;
 
-/// Light samples of [`GBuffer::direct`].
-pub const DIRECT_SAMPLES: u32 = 32;
+/// Light samples of [`GBuffer::direct`]: 16, so that one shadow ray's change, 1/16 of an
+/// unshadowed signature, stays under the change at which reuse drops history
+/// ([`crate::reuse::DIRECT_TOLERANCE`], a tenth) and a penumbra's estimate at a neighbouring
+/// point does not drop it by itself. 32 until 2026-11-27: on the moving-sphere box (128²,
+/// frames 0–11, seeds 0 and 1) 16 give the reuse arm's video JOD within 0.002 at 2–32 fresh
+/// spp, for half the shadow rays (the G-buffer 21 → 13 ms a frame).
+pub const DIRECT_SAMPLES: u32 = 16;
 
 impl GBuffer {
     /// Traces the pixel centres of `scene`'s current frame (its instant, the centre of the
-    /// lens).
+    /// lens), with the direct-light signature [`GBuffer::direct`] that reuse across frames
+    /// needs where anything but the camera moves.
     pub fn render(scene: &Scene) -> GBuffer {
+        Self::traced(scene, scene.geometry.has_motion())
+    }
+
+    /// [`GBuffer::render`] without [`GBuffer::direct`] (left empty): the layers an image
+    /// writes (`Depth.Z`, `Normal`, `IndexOB`, the `Vector` pass taken from it). The direct
+    /// signature costs [`DIRECT_SAMPLES`] shadow rays a pixel wherever a moving object comes
+    /// near the way to a light: on the moving-sphere box (128², 2 spp) 16 ms of a frame's
+    /// 47 ms, spent on nothing by a frame that reuses no history.
+    pub fn render_aovs(scene: &Scene) -> GBuffer {
+        Self::traced(scene, false)
+    }
+
+    /// The G-buffer, with the direct signature where `moving`.
+    fn traced(scene: &Scene, moving: bool) -> GBuffer {
         let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
         let t = scene.frame.time_s as f32;
-        let moving = scene.geometry.has_motion();
         let boxes = scene.geometry.moving_boxes(t);
         let lights = scene.lights.finite_bounds(&scene.geometry, t);
         let texels: Vec<(Texel, f32)> = (0..w * h)

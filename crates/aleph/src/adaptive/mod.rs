@@ -828,7 +828,7 @@ fn render_with_hooks(
         r.wall += aux_time + t.elapsed();
         r.denoised = Some(Denoised { rgb, noisy, aux });
     }
-    r.gbuffer = Some(GBuffer::render(scene));
+    r.gbuffer = Some(GBuffer::render_aovs(scene));
     Ok(r)
 }
 

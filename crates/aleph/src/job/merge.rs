@@ -168,7 +168,7 @@ pub fn merge(parts: &[PathBuf], stem: &Path) -> Result<MergeReport, JobError> {
         decision_time: Duration::ZERO,
         wall: start.elapsed(),
         velocity: crate::velocity::render_velocity(&scene),
-        gbuffer: Some(crate::gbuffer::GBuffer::render(&scene)),
+        gbuffer: Some(crate::gbuffer::GBuffer::render_aovs(&scene)),
         reuse: None,
         denoised: None,
         denoise_time: std::time::Duration::ZERO,
