@@ -182,6 +182,9 @@ pub struct SamplingArgs {
     /// Sequences: each frame reuses every fresh sample of up to K frames before it (the
     /// perceptual sampler; a frame rendered alone first renders the base passes of the K frames
     /// before those and then those K frames whole). 0 renders independent frames. Default: 15 for the perceptual sampler, 0 for the others and with --time.
+    /// Under --spp N the animation's first frame, which has nothing to reuse, draws
+    /// N · (1 + 0.2 (K − 1)) fresh spp and the K − 1 frames after it 0.8 N each, so that the
+    /// first K frames take K · N; each frame's summary line gives its own.
     #[arg(long, value_name = "K", help_heading = "Adaptive sampling")]
     pub reuse_window: Option<u32>,
     /// Sequences: memory reuse across frames may take, GiB (the window's frames, their kept

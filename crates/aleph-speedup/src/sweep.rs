@@ -553,7 +553,7 @@ pub fn sweep(
         perceptual_counts: Vec::new(),
         stop: Acc::default(),
         view: base.tone.view,
-        windows: vec![ReuseWindow::new(); spec.budgets.len()],
+        windows: vec![ReuseWindow::new(spec.reuse_window); spec.budgets.len()],
         budgets: spec.budgets.clone(),
         reuse: (
             spec.reuse_window,
@@ -845,7 +845,7 @@ fn warm_up_reuse(
             };
             if f < whole_from {
                 let own = aleph::reuse::window_frames(f, start, k);
-                let frame = aleph::adaptive::render_base(&ctx.scene, &settings, own)?;
+                let frame = aleph::adaptive::render_base(&ctx.scene, &settings, own, k)?;
                 st.windows[bi].push(frame);
             } else {
                 render_reused(&ctx.scene, &settings, budget, st)?;

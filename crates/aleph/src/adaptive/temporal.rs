@@ -69,7 +69,8 @@ const MAX_PASSES: usize = 8;
 /// [`crate::reuse::BasePass`], in two independent half-buffers), as later frames reuse it:
 /// the same samples [`render_reusing`] draws first, so a warm-up frame rendered this way
 /// gives a window equal to the sequence's. `window_frames`: the frames the frame's own window
-/// would hold in the sequence ([`crate::reuse::window_frames`]).
+/// would hold in the sequence ([`crate::reuse::window_frames`]) under a window of `k`; the
+/// budget is the sequence's, scheduled by [`crate::reuse::start_up_budget`].
 ///
 /// # Errors
 /// As [`render_reusing`].
@@ -77,9 +78,21 @@ pub fn render_base(
     scene: &Scene,
     s: &AdaptiveSettings,
     window_frames: usize,
+    k: u32,
 ) -> Result<FrameSamples, AdaptiveError> {
     s.validate()?;
+    let s = &scheduled(s, window_frames, k);
     Ok(base_pass(scene, s, window_frames, &|_| {})?.1)
+}
+
+/// `s` with the frame's own budget ([`crate::reuse::start_up_budget`]).
+fn scheduled(s: &AdaptiveSettings, window_frames: usize, k: u32) -> AdaptiveSettings {
+    AdaptiveSettings {
+        budget_spp: s
+            .budget_spp
+            .map(|b| crate::reuse::start_up_budget(b, window_frames, k)),
+        ..s.clone()
+    }
 }
 
 /// The base pass in a new loop state, the frame's samples as later frames reuse them, and its
@@ -114,9 +127,10 @@ fn integrator_of(scene: &Scene) -> Integrator {
 }
 
 /// Renders `scene`'s current frame reusing the base passes of the frames in `window`
-/// (the perceptual criterion only; see the module docs). `s.budget_spp` is the frame's budget
-/// of *fresh* samples; `None` renders until the converged fraction. Returns the frame and its
-/// own base pass, for the window of the frames after it.
+/// (the perceptual criterion only; see the module docs). `s.budget_spp` is the sequence's
+/// budget of *fresh* samples, scheduled for the frame by its window
+/// ([`crate::reuse::start_up_budget`]); `None` renders until the converged fraction. Returns
+/// the frame and its own base pass, for the window of the frames after it.
 ///
 /// # Errors
 /// As [`super::render_adaptive`]; also [`AdaptiveError::Settings`] for a criterion other than
@@ -135,6 +149,7 @@ pub fn render_reusing(
         ));
     }
     let start = Instant::now();
+    let s = &scheduled(s, window.len(), window.k());
     let (st, base, gbuffer) = base_pass(scene, s, window.len(), sample_progress)?;
     let velocity = velocity_from_gbuffer(scene, &gbuffer);
     let t_reuse = Instant::now();

@@ -435,7 +435,7 @@ fn render_sequence(
     let stem = job.output.stem.as_deref();
     let (mut pending, mut finished) = (None, Vec::new());
     let (mut samples, mut pixels, mut perception) = (0u64, 0u64, Duration::ZERO);
-    let mut window = crate::reuse::ReuseWindow::new();
+    let mut window = crate::reuse::ReuseWindow::new(k);
     for frame in sequence.frames() {
         let frame = frame?;
         window.keep_from(crate::reuse::window_start(frame.index, anim_first, k));
@@ -443,7 +443,12 @@ fn render_sequence(
         if frame.index < whole_from {
             // A warm-up frame whose base pass alone the frames after it depend on.
             let own = crate::reuse::window_frames(frame.index, anim_first, k);
-            window.push(crate::adaptive::render_base(&frame.scene, &settings, own)?);
+            window.push(crate::adaptive::render_base(
+                &frame.scene,
+                &settings,
+                own,
+                k,
+            )?);
             continue;
         }
         if frame.index < first {
