@@ -171,9 +171,10 @@ pub fn chunk_start(frame: i64, first: i64, k: u32) -> i64 {
 /// them, and its base pass for their allocation), so its error is what a sequence that starts
 /// with it shows longest: on the moving-sphere box (128², frames 0–11, seed 0) the reuse arm
 /// at 2 fresh spp scored video JOD 6.605, and 6.767 on frames 1–11 alone. With the first frame
-/// at 3.8 × the budget and frames 1–14 at 0.8 × (this share) the twelve frames score 7.005 at
-/// 2.13 spp mean (uniform's 8-spp frames: 6.955); 2 × on the first frame without the payback,
-/// 6.896 at 2.17 spp.
+/// at 3.8 × the budget and frames 1–14 at 0.8 × (this share, under K = 15) the twelve frames
+/// score 6.953 at 2.1 spp mean (seed 1: 6.996; uniform's 8-spp frames: 6.955 / 6.978); 2 × on
+/// the first frame without the payback, 6.896 at 2.17 spp; shares 0.1 and 0.3 in
+/// docs/reuse.md ("The first frame's start-up").
 pub const START_UP_SHARE: f64 = 0.2;
 
 /// The fresh budget, spp, of a frame whose window holds `window_frames` frames
