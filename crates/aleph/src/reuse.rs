@@ -848,17 +848,33 @@ impl Reprojected {
         } else {
             layer.frames.len()
         };
-        // The window's frames in parallel (each frame's serial parts, its moments and its
-        // summed-area table, on a core of their own), combined in the frames' order.
-        let verdicts: Vec<(Vec<f64>, Vec<f32>)> = layer.frames[..tested]
-            .par_iter()
-            .zip(&layer.lum[..tested])
-            .map(|(f, lum)| frame_verdicts(f, lum, &fresh_y, (w, h)))
-            .collect();
         let mut shares: Vec<Vec<f64>> = Vec::with_capacity(tested);
-        for (share, b) in verdicts {
-            for (i, &b) in b.iter().enumerate() {
-                bias[i] = bias[i].max(b);
+        for (f, lum) in layer.frames.iter().zip(&layer.lum).take(tested) {
+            let reused: Vec<Moments> = f
+                .iter()
+                .zip(lum)
+                .map(|(p, &(l, n))| Moments::of(l, n, p.history().sum_lum2))
+                .collect();
+            let pooled = Pooled::new(&fresh_y, &reused, w, h);
+            let verdicts: Vec<(f64, f32)> = (0..w * h)
+                .into_par_iter()
+                .map(|i| {
+                    if reused[i].n <= 0.0 {
+                        return (0.0, 0.0);
+                    }
+                    let (start, xy) = ((1.0f64, 0.0f32), (i % w, i / w));
+                    TEST_RADII
+                        .iter()
+                        .map(|&r| pooled.verdict(xy, r))
+                        .fold(start, |a, b| (a.0.min(b.0), a.1.max(b.1)))
+                })
+                .collect();
+            let mut share = vec![0f64; w * h];
+            for (i, (keep, b)) in verdicts.into_iter().enumerate() {
+                if keep > 0.0 {
+                    share[i] = keep;
+                    bias[i] = bias[i].max(b);
+                }
             }
             shares.push(share);
         }
@@ -867,38 +883,6 @@ impl Reprojected {
         let history = keep(layer, &shares, fresh, &fresh_y, &self.surfaces);
         Tested { history, bias }
     }
-}
-
-/// One window frame's test ([`Reprojected::test`]) against the fresh samples' moments
-/// `fresh_y`: per pixel of the `w` × `h` frame, the share of its samples kept and the bias
-/// bound where any is kept (0 elsewhere). `f` and `lum`: the frame's landed samples and their
-/// luminance sums and weights ([`Layer`]).
-fn frame_verdicts(
-    f: &[Part],
-    lum: &[(f64, f64)],
-    fresh_y: &[Moments],
-    (w, h): (usize, usize),
-) -> (Vec<f64>, Vec<f32>) {
-    let reused: Vec<Moments> = f
-        .iter()
-        .zip(lum)
-        .map(|(p, &(l, n))| Moments::of(l, n, p.history().sum_lum2))
-        .collect();
-    let pooled = Pooled::new(fresh_y, &reused, w, h);
-    (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            if reused[i].n <= 0.0 {
-                return (0.0, 0.0);
-            }
-            let (start, xy) = ((1.0f64, 0.0f32), (i % w, i / w));
-            let (keep, b) = TEST_RADII
-                .iter()
-                .map(|&r| pooled.verdict(xy, r))
-                .fold(start, |a, b| (a.0.min(b.0), a.1.max(b.1)));
-            if keep > 0.0 { (keep, b) } else { (0.0, 0.0) }
-        })
-        .unzip()
 }
 
 /// Per pixel, the least mean a held firefly's excess is measured against
