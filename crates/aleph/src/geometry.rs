@@ -316,8 +316,31 @@ fn motion_bounds(track: &TransformTrack, lo: Vec3, hi: Vec3, t0: f32, t1: f32) -
     ((bmin - pad).into(), (bmax + pad).into())
 }
 
+/// One thread's instance poses ([`Geometry::pose`]): each instance's transform and inverse at
+/// one time, for one geometry (its `id`: a geometry dropped and another built at the same
+/// address is not taken for it). Filled as the instances are asked for; the same values as
+/// computed afresh, so renders do not depend on which thread asked first.
+struct Poses {
+    geometry: u64,
+    /// The time's bits (`u32::MAX`, a NaN's, before the first).
+    time: u32,
+    poses: Vec<Option<(Affine3A, Affine3A)>>,
+}
+
+thread_local! {
+    static POSES: std::cell::RefCell<Poses> = const {
+        std::cell::RefCell::new(Poses {
+            geometry: u64::MAX,
+            time: u32::MAX,
+            poses: Vec::new(),
+        })
+    };
+}
+
 /// All triangles of a scene with their BVHs.
 pub struct Geometry {
+    /// This geometry's number among those built in the process ([`Poses`]).
+    id: u64,
     /// The static triangles' BVH (world space), if there are any.
     stat: Option<Bvh>,
     /// Moving meshes.
@@ -447,7 +470,9 @@ impl Geometry {
                 }
             })
             .collect();
+        static BUILT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         Geometry {
+            id: BUILT.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             stat,
             instances,
             tris,
@@ -516,7 +541,26 @@ impl Geometry {
     /// [`STATIC_INSTANCE`].
     #[inline]
     pub fn instance_transform(&self, inst: u32, time: f32) -> Option<Affine3A> {
-        (inst != STATIC_INSTANCE).then(|| self.instance_of(inst).track.at(time))
+        (inst != STATIC_INSTANCE).then(|| self.pose(inst as usize, time).0)
+    }
+
+    /// Instance `k`'s transform at `time` and its inverse, from this thread's [`Poses`]: the
+    /// rays of one path sample share its time, so a path poses each instance once instead of
+    /// at every ray that enters its box (a slerp and an inverse each).
+    #[inline]
+    fn pose(&self, k: usize, time: f32) -> (Affine3A, Affine3A) {
+        POSES.with_borrow_mut(|p| {
+            if p.geometry != self.id || p.time != time.to_bits() {
+                p.geometry = self.id;
+                p.time = time.to_bits();
+                p.poses.clear();
+                p.poses.resize(self.instances.len(), None);
+            }
+            *p.poses[k].get_or_insert_with(|| {
+                let m = self.instances[k].track.at(time);
+                (m, m.inverse())
+            })
+        })
     }
 
     /// The world-space boxes of the moving instances posed at `time`: each rest box's eight
@@ -542,11 +586,6 @@ impl Geometry {
                 (bmin, bmax)
             })
             .collect()
-    }
-
-    #[inline]
-    fn instance_of(&self, inst: u32) -> &Instance {
-        &self.instances[inst as usize]
     }
 
     /// The world-space vertices of triangle `tri` at `time`.
@@ -575,12 +614,11 @@ impl Geometry {
         let mut best_xf = None;
         if !self.instances.is_empty() {
             let inv_d = d.recip();
-            for inst in &self.instances {
+            for (k, inst) in self.instances.iter().enumerate() {
                 if !inst.enters(o, inv_d, t_max) {
                     continue;
                 }
-                let m = inst.track.at(ray.time);
-                let inv = m.inverse();
+                let (m, inv) = self.pose(k, ray.time);
                 let (oi, di) = (inv.transform_point3a(o), inv.transform_vector3a(d));
                 if let Some(h) = inst
                     .blas
@@ -655,11 +693,11 @@ impl Geometry {
             return true;
         }
         let inv_d = d.recip();
-        self.instances.iter().all(|inst| {
+        self.instances.iter().enumerate().all(|(k, inst)| {
             if !inst.enters(o, inv_d, t_max) {
                 return true;
             }
-            let inv = inst.track.at(time).inverse();
+            let inv = self.pose(k, time).1;
             inst.blas.unoccluded(
                 inv.transform_point3a(o),
                 inv.transform_vector3a(d),
@@ -744,5 +782,53 @@ mod tests {
         assert_eq!(std::mem::size_of::<StoredTriangle>(), 56);
         t.set_light(3, 7);
         assert_eq!(t.get(3).light, 7);
+    }
+
+    /// Two geometries whose one moving triangle slides along x at different speeds, asked in
+    /// turn on one thread at the same times: each pose is its own track's, and a ray at a
+    /// time meets the triangle where that geometry has moved it.
+    #[test]
+    fn each_geometry_poses_its_own_instances() {
+        let key = |t: f32, x: f32| crate::animation::TransformKey {
+            time_s: t,
+            translate: Vec3::new(x, 0.0, 0.0),
+            rotate: glam::Quat::IDENTITY,
+            scale: Vec3::ONE,
+        };
+        let geometry = |speed: f32| {
+            let tri = TriangleAttributes {
+                p: [
+                    Vec3::new(-0.5, -0.5, -1.0),
+                    Vec3::new(0.5, -0.5, -1.0),
+                    Vec3::new(0.0, 0.5, -1.0),
+                ],
+                n: None,
+                uv: [Vec2::ZERO; 3],
+                material: 0,
+                light: u32::MAX,
+                instance: 0,
+            };
+            let track = TransformTrack::new(vec![key(0.0, 0.0), key(1.0, speed)]).unwrap();
+            Geometry::with_instances(vec![tri], vec![track], (0.0, 1.0))
+        };
+        let (slow, fast) = (geometry(1.0), geometry(4.0));
+        for t in [0.25f32, 0.25, 0.5, 0.75, 0.75] {
+            for (g, speed) in [(&slow, 1.0), (&fast, 4.0), (&slow, 1.0)] {
+                let m = g.instance_transform(0, t).unwrap();
+                assert_eq!(m.translation.x, speed * t, "t = {t}");
+                // A ray along -z through x = speed · t hits the triangle's moved centre line.
+                let o = Vec3::new(speed * t, 0.0, 0.0);
+                let ray = Ray {
+                    o,
+                    d: -Vec3::Z,
+                    t_max: f32::INFINITY,
+                    time: t,
+                };
+                let hit = g.intersect(&ray).expect("a hit");
+                assert!((hit.p.x - speed * t).abs() < 1e-5, "t = {t}: {:?}", hit.p);
+                assert!(!g.unoccluded(o, -Vec3::Z, 10.0, t));
+                assert!(g.unoccluded(o + Vec3::new(0.7, 0.0, 0.0), -Vec3::Z, 10.0, t));
+            }
+        }
     }
 }
