@@ -222,6 +222,19 @@ fn the_window_slides_every_frame_keeps_k_base_passes() {
     }
 }
 
+/// The `[camera]`, `[render]` and `[animation]` tables of a 48² camera at the origin looking
+/// down −z (90° field of view) that translates by `dx` units along x a second, frames 0 to
+/// `last` at 24 fps, paths of two bounces.
+fn translating_camera(dx: f64, last: i64) -> String {
+    format!(
+        "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nvfov_deg = 90\n\
+         resolution = [48, 48]\n\
+         [[camera.keys]]\ntime = 0.0\n\
+         [[camera.keys]]\ntime = 1.0\nposition = [{dx}, 0, 0]\nlook_at = [{dx}, 0, -1]\n\
+         [render]\nmax_depth = 2\n[animation]\nfps = 24.0\nframes = [0, {last}]\n"
+    )
+}
+
 /// A wall at z = −2 with a smooth texture (period ¼ of the view), lit by an emitter behind
 /// the camera, which pans right at 0.7 pixels per frame (48², 90° field of view).
 fn panned_wall(dir: &Path) -> PathBuf {
@@ -241,13 +254,11 @@ fn panned_wall(dir: &Path) -> PathBuf {
         v -2 -2 1\nv -2 2 1\nv 2 2 1\nv 2 -2 1\nusemtl glow\nf 5 6 7 8\n";
     let mtl = "newmtl wall\nKd 1 1 1\nmap_Kd wall.png\nnewmtl glow\nKd 0 0 0\nKe 2 2 2\n";
     // 48 px over 4 units at z = −2: 12 px per unit; 0.7 px per frame at 24 fps is 1.4 units/s.
-    let toml = "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nvfov_deg = 90\n\
-        resolution = [48, 48]\n\
-        [[camera.keys]]\ntime = 0.0\n\
-        [[camera.keys]]\ntime = 1.0\nposition = [1.4, 0, 0]\nlook_at = [1.4, 0, -1]\n\
-        [render]\nmax_depth = 2\n[animation]\nfps = 24.0\nframes = [0, 5]\n\
-        [[mesh]]\nfile = \"w.obj\"\n";
-    write_files(dir, &[("w.obj", obj), ("w.mtl", mtl), ("scene.toml", toml)]);
+    let toml = format!("{}[[mesh]]\nfile = \"w.obj\"\n", translating_camera(1.4, 5));
+    write_files(
+        dir,
+        &[("w.obj", obj), ("w.mtl", mtl), ("scene.toml", &toml)],
+    );
     dir.join("scene.toml")
 }
 
@@ -538,14 +549,15 @@ fn slab_before_sky(dir: &Path) -> PathBuf {
     let obj = "mtllib s.mtl\nv -0.5 -5 -2\nv 0.5 -5 -2\nv 0.5 5 -2\nv -0.5 5 -2\nusemtl slab\nf 1 2 3 4\n";
     let mtl = "newmtl slab\nKd 0.05 0.05 0.05\n";
     // 0.25 px a frame at 12 px a unit and 24 fps: 0.5 units/s.
-    let toml = "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nvfov_deg = 90\n\
-        resolution = [48, 48]\n\
-        [[camera.keys]]\ntime = 0.0\n\
-        [[camera.keys]]\ntime = 1.0\nposition = [0.5, 0, 0]\nlook_at = [0.5, 0, -1]\n\
-        [render]\nmax_depth = 2\n[animation]\nfps = 24.0\nframes = [0, 7]\n\
-        [[light]]\ntype = \"environment\"\nradiance = [1, 1, 1]\n\
-        [[mesh]]\nfile = \"s.obj\"\n";
-    write_files(dir, &[("s.obj", obj), ("s.mtl", mtl), ("scene.toml", toml)]);
+    let toml = format!(
+        "{}[[light]]\ntype = \"environment\"\nradiance = [1, 1, 1]\n\
+         [[mesh]]\nfile = \"s.obj\"\n",
+        translating_camera(0.5, 7)
+    );
+    write_files(
+        dir,
+        &[("s.obj", obj), ("s.mtl", mtl), ("scene.toml", &toml)],
+    );
     dir.join("scene.toml")
 }
 

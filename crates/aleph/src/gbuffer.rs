@@ -144,8 +144,13 @@ impl GBuffer {
     fn traced(scene: &Scene, moving: bool) -> GBuffer {
         let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
         let t = scene.frame.time_s as f32;
-        let boxes = scene.geometry.moving_boxes(t);
-        let lights = scene.lights.finite_bounds(&scene.geometry, t);
+        // What the signature's pre-test needs, only where there is a signature.
+        let (boxes, lights) = if moving {
+            let lights = scene.lights.finite_bounds(&scene.geometry, t);
+            (scene.geometry.moving_boxes(t), lights)
+        } else {
+            (Vec::new(), None)
+        };
         let texels: Vec<(Texel, f32)> = (0..w * h)
             .into_par_iter()
             .map(|i| {
