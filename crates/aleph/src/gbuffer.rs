@@ -114,13 +114,18 @@ pub struct GBuffer {
 /// point makes the pixel an edge.
 pub const EDGE_PLANE_TOLERANCE: f32 = 0.01;
 
-/// Light samples of [`GBuffer::direct`]: 16, so that one shadow ray's change, 1/16 of an
-/// unshadowed signature, stays under the change at which reuse drops history
-/// ([`crate::reuse::DIRECT_TOLERANCE`], a tenth) and a penumbra's estimate at a neighbouring
-/// point does not drop it by itself. 32 until 2026-11-27: on the moving-sphere box (128²,
-/// frames 0–11, seeds 0 and 1) 16 give the reuse arm's video JOD within 0.002 at 2–32 fresh
-/// spp, for half the shadow rays (the G-buffer 21 → 13 ms a frame).
-pub const DIRECT_SAMPLES: u32 = 16;
+/// Light samples of [`GBuffer::direct`]: 8. The signature only has to tell where a moving
+/// object changed the direct light; the test of reused against fresh luminance
+/// ([`crate::reuse::Reprojected::test`]) catches what it misses. One shadow ray's change, 1/8
+/// of an unshadowed signature, is more than the change at which reuse drops history
+/// ([`crate::reuse::DIRECT_TOLERANCE`], a tenth), so in a penumbra a neighbour's sample is
+/// dropped more often than at 16: measured on the moving-sphere box (128², frames 0–11,
+/// seeds 0 and 1, budgets 1–8 fresh spp), 32, 16, 8 and 4 samples give the reuse arm's video
+/// JOD within 0.01 and its FLIP mean within 0.4 % of each other, and every reuse test passes
+/// at 4; 8 halves the shadow rays of 16 (the whole 12-frame render at 1 fresh spp took
+/// 1/1.10 the wall time, 7 pairs) and keeps twice the resolution of 4 for small occluders.
+/// 32 until 2026-11-27, then 16.
+pub const DIRECT_SAMPLES: u32 = 8;
 
 impl GBuffer {
     /// Traces the pixel centres of `scene`'s current frame (its instant, the centre of the
@@ -195,8 +200,11 @@ impl GBuffer {
                 g.direct.push(direct);
             }
         }
-        g.edge = (0..w * h).map(|i| g.straddles_edge(i)).collect();
-        g.front = (0..w * h).map(|i| g.front_of(i)).collect();
+        g.edge = (0..w * h)
+            .into_par_iter()
+            .map(|i| g.straddles_edge(i))
+            .collect();
+        g.front = (0..w * h).into_par_iter().map(|i| g.front_of(i)).collect();
         g
     }
 

@@ -1317,12 +1317,15 @@ fn covered_by(
         .unzip();
     let parallax = steps::parallax((w, h), |i| g.front[i].1, &moved);
     // Each pixel and its left and right neighbours, then those rows above and below.
-    let across: Vec<bool> = seen
-        .par_chunks(w)
-        .flat_map_iter(|row| {
-            (0..w).map(move |x| row[x.saturating_sub(1)..(x + 2).min(w)].iter().all(|&b| b))
-        })
-        .collect();
+    let mut across = vec![false; w * h];
+    across
+        .par_chunks_mut(w)
+        .zip(seen.par_chunks(w))
+        .for_each(|(out, row)| {
+            for (x, o) in out.iter_mut().enumerate() {
+                *o = row[x.saturating_sub(1)..(x + 2).min(w)].iter().all(|&b| b);
+            }
+        });
     let covered = (0..w * h)
         .into_par_iter()
         .map(|i| {
