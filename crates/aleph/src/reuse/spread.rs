@@ -106,29 +106,32 @@ pub(super) fn spread(excess: &[DVec3], s: &Surfaces) -> Vec<DVec3> {
     if rows.iter().all(Vec::is_empty) {
         return vec![DVec3::ZERO; w * h];
     }
+    // Each row of the result gathers from the excess pixels of the rows within the radius, in
+    // the order of the rows and then of x, each adding its share along its patch's span of the
+    // row: the same sums in the same order as visiting every pixel's neighbourhood, without a
+    // search per pixel and row where excess is sparse.
     let r = SPREAD_RADIUS;
-    (0..w * h)
-        .into_par_iter()
-        .map(|j| {
-            let (x, y) = (j % w, j / w);
-            let mut sum = DVec3::ZERO;
-            let y0 = y.saturating_sub(r);
-            for (dy, row) in rows[y0..(y + r + 1).min(h)].iter().enumerate() {
-                // The row's pixels i, at x = i − start.
-                let start = (y0 + dy) * w;
-                let first = row.partition_point(|&(i, _)| i - start + r < x);
-                let near = row[first..]
-                    .iter()
-                    .take_while(|&&(i, _)| i - start <= x + r);
-                for &(i, share) in near {
-                    if s.same(i, j) {
-                        sum += share;
+    let mut out = vec![DVec3::ZERO; w * h];
+    out.par_chunks_mut(w).enumerate().for_each(|(y, row_out)| {
+        let y0 = y.saturating_sub(r);
+        for (dy, row) in rows[y0..(y + r + 1).min(h)].iter().enumerate() {
+            let start = (y0 + dy) * w;
+            for &(i, share) in row {
+                let x = i - start;
+                for (xx, o) in row_out
+                    .iter_mut()
+                    .enumerate()
+                    .take((x + r + 1).min(w))
+                    .skip(x.saturating_sub(r))
+                {
+                    if s.same(i, y * w + xx) {
+                        *o += share;
                     }
                 }
             }
-            sum
-        })
-        .collect()
+        }
+    });
+    out
 }
 
 #[cfg(test)]
