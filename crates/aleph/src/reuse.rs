@@ -851,7 +851,7 @@ impl Reprojected {
         let mut shares: Vec<Vec<f64>> = Vec::with_capacity(tested);
         for (f, lum) in layer.frames.iter().zip(&layer.lum).take(tested) {
             let reused: Vec<Moments> = f
-                .par_iter()
+                .iter()
                 .zip(lum)
                 .map(|(p, &(l, n))| Moments::of(l, n, p.history().sum_lum2))
                 .collect();
@@ -1113,20 +1113,15 @@ struct Pooled(SummedArea<4>);
 
 impl Pooled {
     fn new(fresh: &[Moments], reused: &[Moments], w: usize, h: usize) -> Pooled {
-        // The terms in parallel (three divisions a pixel), then their running sums.
-        let terms: Vec<[f64; 4]> = fresh
-            .par_iter()
-            .zip(reused)
-            .map(|(f, h)| {
-                let dof = f.dof + h.dof;
-                if f.n <= 0.0 || h.n <= 0.0 || dof <= 0.0 {
-                    return [0.0; 4];
-                }
-                let s2 = (f.within + h.within) / dof;
-                [f.sum / f.n, h.sum / h.n, s2 * (1.0 / f.n + 1.0 / h.n), 1.0]
-            })
-            .collect();
-        Pooled(SummedArea::new(w, h, |i| terms[i]))
+        Pooled(SummedArea::new(w, h, |i| {
+            let (f, h) = (&fresh[i], &reused[i]);
+            let dof = f.dof + h.dof;
+            if f.n <= 0.0 || h.n <= 0.0 || dof <= 0.0 {
+                return [0.0; 4];
+            }
+            let s2 = (f.within + h.within) / dof;
+            [f.sum / f.n, h.sum / h.n, s2 * (1.0 / f.n + 1.0 / h.n), 1.0]
+        }))
     }
 
     /// The share of the reprojected frame kept at pixel `xy`, and the disagreement bound (Y),
