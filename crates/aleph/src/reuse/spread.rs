@@ -73,13 +73,17 @@ impl Surfaces {
 
     /// The pixels of `i`'s neighbourhood that show its surface.
     fn patch(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
-        let (w, r) = (self.width, SPREAD_RADIUS);
-        let (x, y) = (i % w, i / w);
-        let xs = x.saturating_sub(r)..(x + r + 1).min(w);
-        (y.saturating_sub(r)..(y + r + 1).min(self.height))
+        let w = self.width;
+        let xs = span(i % w, w);
+        span(i / w, self.height)
             .flat_map(move |yy| xs.clone().map(move |xx| yy * w + xx))
             .filter(move |&j| self.same(i, j))
     }
+}
+
+/// The columns (or rows) within [`SPREAD_RADIUS`] of `c` in an image `n` wide (or high).
+fn span(c: usize, n: usize) -> std::ops::Range<usize> {
+    c.saturating_sub(SPREAD_RADIUS)..(c + SPREAD_RADIUS + 1).min(n)
 }
 
 /// Spreads each pixel's `excess` (radiance, row-major, one per pixel of `s`) evenly over the
@@ -110,23 +114,12 @@ pub(super) fn spread(excess: &[DVec3], s: &Surfaces) -> Vec<DVec3> {
     // the order of the rows and then of x, each adding its share along its patch's span of the
     // row: the same sums in the same order as visiting every pixel's neighbourhood, without a
     // search per pixel and row where excess is sparse.
-    let r = SPREAD_RADIUS;
     let mut out = vec![DVec3::ZERO; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(y, row_out)| {
-        let y0 = y.saturating_sub(r);
-        for (dy, row) in rows[y0..(y + r + 1).min(h)].iter().enumerate() {
-            let start = (y0 + dy) * w;
-            for &(i, share) in row {
-                let x = i - start;
-                for (xx, o) in row_out
-                    .iter_mut()
-                    .enumerate()
-                    .take((x + r + 1).min(w))
-                    .skip(x.saturating_sub(r))
-                {
-                    if s.same(i, y * w + xx) {
-                        *o += share;
-                    }
+        for &(i, share) in span(y, h).flat_map(|yy| &rows[yy]) {
+            for xx in span(i % w, w) {
+                if s.same(i, y * w + xx) {
+                    row_out[xx] += share;
                 }
             }
         }
