@@ -837,52 +837,69 @@ impl Reprojected {
         assert_eq!((w, h), (fresh.width as usize, fresh.height as usize));
         let fresh_y: Vec<Moments> = fresh
             .pixels
-            .iter()
+            .par_iter()
             .map(|p| Moments::of(luminance(p.sum()), p.count() as f64, p.sum_lum2.value()))
             .collect();
-        let mut bias = vec![0f32; w * h];
         // Per window frame, per pixel: the share of its samples kept (none where nothing but
-        // the camera moves: everything is kept, and `keep` takes every share as 1).
+        // the camera moves: everything is kept, and `keep` takes every share as 1). The frames
+        // are tested in parallel; the bound is their largest, the same in any order.
         let tested = if self.still_light {
             0
         } else {
             layer.frames.len()
         };
-        let mut shares: Vec<Vec<f64>> = Vec::with_capacity(tested);
-        for (f, lum) in layer.frames.iter().zip(&layer.lum).take(tested) {
-            let reused: Vec<Moments> = f
-                .iter()
-                .zip(lum)
-                .map(|(p, &(l, n))| Moments::of(l, n, p.history().sum_lum2))
-                .collect();
-            let pooled = Pooled::new(&fresh_y, &reused, w, h);
-            let verdicts: Vec<(f64, f32)> = (0..w * h)
-                .into_par_iter()
-                .map(|i| {
-                    if reused[i].n <= 0.0 {
-                        return (0.0, 0.0);
-                    }
-                    let (start, xy) = ((1.0f64, 0.0f32), (i % w, i / w));
-                    TEST_RADII
-                        .iter()
-                        .map(|&r| pooled.verdict(xy, r))
-                        .fold(start, |a, b| (a.0.min(b.0), a.1.max(b.1)))
-                })
-                .collect();
-            let mut share = vec![0f64; w * h];
-            for (i, (keep, b)) in verdicts.into_iter().enumerate() {
-                if keep > 0.0 {
-                    share[i] = keep;
-                    bias[i] = bias[i].max(b);
+        let bias = std::sync::Mutex::new(vec![0f32; w * h]);
+        let mut shares: Vec<Vec<f64>> = layer
+            .frames
+            .par_iter()
+            .zip(layer.lum.par_iter())
+            .take(tested)
+            .map(|(f, lum)| {
+                let (share, b) = test_frame(f, lum, &fresh_y, (w, h));
+                let mut bias = bias.lock().unwrap_or_else(|e| e.into_inner());
+                for (m, b) in bias.iter_mut().zip(b) {
+                    *m = m.max(b);
                 }
-            }
-            shares.push(share);
-        }
+                share
+            })
+            .collect();
+        let bias = bias.into_inner().unwrap_or_else(|e| e.into_inner());
         let steps = (&self.parallax[..], &self.stepped[..]);
         steps::weigh(layer, steps, &fresh_y, (w, h), &mut shares);
         let history = keep(layer, &shares, fresh, &fresh_y, &self.surfaces);
         Tested { history, bias }
     }
+}
+
+/// One window frame's samples `f` (their luminance sums and weights `lum`) tested against the
+/// fresh samples `fresh_y` at every pixel of a `w` × `h` image ([`Reprojected::test`]): the
+/// share of them kept, and where any is kept the disagreement bound (Y; 0 elsewhere).
+fn test_frame(
+    f: &[Part],
+    lum: &[(f64, f64)],
+    fresh_y: &[Moments],
+    (w, h): (usize, usize),
+) -> (Vec<f64>, Vec<f32>) {
+    let reused: Vec<Moments> = f
+        .par_iter()
+        .zip(lum)
+        .map(|(p, &(l, n))| Moments::of(l, n, p.history().sum_lum2))
+        .collect();
+    let pooled = Pooled::new(fresh_y, &reused, w, h);
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            if reused[i].n <= 0.0 {
+                return (0.0, 0.0);
+            }
+            let (start, xy) = ((1.0f64, 0.0f32), (i % w, i / w));
+            let (keep, b) = TEST_RADII
+                .iter()
+                .map(|&r| pooled.verdict(xy, r))
+                .fold(start, |a, b| (a.0.min(b.0), a.1.max(b.1)));
+            if keep > 0.0 { (keep, b) } else { (0.0, 0.0) }
+        })
+        .unzip()
 }
 
 /// Per pixel, the least mean a held firefly's excess is measured against
