@@ -335,11 +335,12 @@ pub const SAMPLE_BYTES: usize = std::mem::size_of::<Sample>() + std::mem::size_o
 
 /// Bytes a pixel takes in each window frame besides its kept samples: the frame's [`View`]
 /// record (with its direct-light signature) and, while the frame lands in the current one, two
-/// layers of sums ([`Reprojected`]: the base passes and every sample) with their luminance,
-/// and the parallax at steps in depth (see [`STEP_BIAS`]).
+/// layers of sums ([`Reprojected`]: the base passes and every sample; counted as they land,
+/// in their larger form) with their luminance, and the parallax at steps in depth (see
+/// [`STEP_BIAS`]).
 pub const RECORD_BYTES: usize = std::mem::size_of::<Px>()
     + 2 * std::mem::size_of::<f32>()
-    + 2 * (std::mem::size_of::<Part>() + std::mem::size_of::<(f64, f64)>());
+    + 2 * (std::mem::size_of::<Splat>() + std::mem::size_of::<(f64, f64)>());
 
 /// Samples a pixel keeps at least (one for each half-buffer).
 pub const MIN_KEPT_SPP: u32 = 2;
@@ -751,19 +752,19 @@ impl Layer {
     }
 }
 
-/// One window frame's samples at one pixel, per half-buffer: Σ w, Σ w², Σ w·RGB and Σ w·Y² of
-/// the samples that landed there with weights w (a window frame gives a pixel tens of samples
-/// at most, well within f32). As history each half is the weighted mean counted as Kish's
-/// effective number of samples, (Σ w)² / Σ w².
+/// One window frame's samples at one pixel as they land, per half-buffer: Σ w, Σ w², Σ w·RGB
+/// and Σ w·Y² of the samples that landed there with weights w (a window frame gives a pixel
+/// tens of samples at most, well within f32). As history ([`Splat::finish`]) each half is the
+/// weighted mean counted as Kish's effective number of samples, (Σ w)² / Σ w².
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct Part {
+struct Splat {
     w: [f32; 2],
     w2: [f32; 2],
     rgb: [Vec3; 2],
     lum2: [f32; 2],
 }
 
-impl Part {
+impl Splat {
     /// Adds a sample of radiance `rgb` to half-buffer A (`even`) or B with weight `w`.
     fn add(&mut self, rgb: Vec3, even: bool, w: f32) {
         let h = usize::from(!even);
@@ -783,24 +784,45 @@ impl Part {
         (n, n / self.w[h])
     }
 
+    /// The sums as history, each half scaled to its effective count (computed once: every
+    /// test reads them).
+    fn finish(&self) -> Part {
+        let ((ne, ke), (no, ko)) = (self.count(0), self.count(1));
+        Part {
+            n: [ne, no],
+            rgb: [self.rgb[0] * ke, self.rgb[1] * ko],
+            lum2: self.lum2[0] * ke + self.lum2[1] * ko,
+        }
+    }
+}
+
+/// One window frame's samples at one pixel as history ([`Splat::finish`]): per half-buffer
+/// the effective count and the RGB sum scaled to it, and Σ w·Y² scaled alike over both
+/// halves.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Part {
+    n: [f32; 2],
+    rgb: [Vec3; 2],
+    lum2: f32,
+}
+
+impl Part {
     fn weight(&self) -> f64 {
-        (self.count(0).0 + self.count(1).0) as f64
+        (self.n[0] + self.n[1]) as f64
     }
 
     /// Luminance of the RGB sum of both halves, as history.
     fn lum(&self) -> f64 {
-        let s = self.rgb[0] * self.count(0).1 + self.rgb[1] * self.count(1).1;
-        crate::math::luminance(s) as f64
+        crate::math::luminance(self.rgb[0] + self.rgb[1]) as f64
     }
 
     fn history(&self) -> HistoryPixel {
-        let ((ne, ke), (no, ko)) = (self.count(0), self.count(1));
         HistoryPixel {
-            sum_even: (self.rgb[0] * ke).as_dvec3(),
-            sum_odd: (self.rgb[1] * ko).as_dvec3(),
-            n_even: ne as f64,
-            n_odd: no as f64,
-            sum_lum2: (self.lum2[0] * ke + self.lum2[1] * ko) as f64,
+            sum_even: self.rgb[0].as_dvec3(),
+            sum_odd: self.rgb[1].as_dvec3(),
+            n_even: self.n[0] as f64,
+            n_odd: self.n[1] as f64,
+            sum_lum2: self.lum2 as f64,
             spread: DVec3::ZERO,
         }
     }
@@ -1244,7 +1266,7 @@ fn splat_frame(
     };
     // Landed and summed in the samples' order, the window's frames in parallel (one task each:
     // no buffer of landings, and the same bytes for any thread count).
-    let mut all = vec![Part::default(); g.width * g.height];
+    let mut all = vec![Splat::default(); g.width * g.height];
     let mut base = all.clone();
     for k in 0..f.start.len() - 1 {
         let range = f.start[k] as usize..f.start[k + 1] as usize;
@@ -1262,7 +1284,8 @@ fn splat_frame(
             }
         }
     }
-    (base, all, parallax)
+    let finish = |layer: Vec<Splat>| layer.iter().map(Splat::finish).collect();
+    (finish(base), finish(all), parallax)
 }
 
 /// Where a sample lands ([`Landing::land`]): the pixel, the share kept (direct light) and the
@@ -1857,9 +1880,9 @@ mod tests {
             .map(|_| {
                 (0..w * h)
                     .map(|_| {
-                        let mut p = Part::default();
+                        let mut p = Splat::default();
                         (0..4).for_each(|k| p.add(sample(), k % 2 == 0, 1.0));
-                        p
+                        p.finish()
                     })
                     .collect()
             })
