@@ -644,7 +644,7 @@ mod tests {
             let n = 1 + (rng.uniform() * 400.0) as usize;
             // Effective counts in steps of whole frames (ties), a rounding or two below them
             // (as Kish counts of equal weights come out), or arbitrary; rooms from 1 up, every
-            // third case one room for all.
+            // fourth case one room for all.
             let room = 1 + (rng.uniform() * 9.0) as u32;
             let open: Vec<(usize, f64, u32)> = (0..n)
                 .map(|i| {
