@@ -479,15 +479,14 @@ fn water_fill(alloc: &mut Allocation, film: &Film, ratio: &[f32], remaining: u64
 /// bisecting on to adjacent doubles would.
 fn fill(open: &[(usize, f64, u32)], spare: u64, (lo, hi): (f64, f64)) -> Vec<(usize, u64)> {
     let mut takes: Vec<(usize, u64)> = open.iter().map(|o| (o.0, take_to(lo, o))).collect();
-    let spent: u64 = takes.iter().map(|t| t.1).sum();
-    let mut left = spare.saturating_sub(spent);
+    let left = spare.saturating_sub(takes.iter().map(|t| t.1).sum());
     if left == 0 {
         return takes;
     }
     let mut next: Vec<(f64, f64, usize, usize)> = open
         .iter()
         .enumerate()
-        .filter(|(_, o)| take_to(hi, o) > take_to(lo, o))
+        .filter(|&(k, o)| take_to(hi, o) > takes[k].1)
         .map(|(k, &(i, eff, _))| (step_level(takes[k].1, eff), eff, i, k))
         .collect();
     next.sort_by(|a, b| {
@@ -495,14 +494,15 @@ fn fill(open: &[(usize, f64, u32)], spare: u64, (lo, hi): (f64, f64)) -> Vec<(us
             .then(a.1.total_cmp(&b.1))
             .then(a.2.cmp(&b.2))
     });
-    for (.., k) in next {
-        if left == 0 {
-            break;
-        }
-        takes[k].1 += 1;
-        left -= 1;
-    }
+    one_each(&mut takes, next.into_iter().map(|t| t.3), left);
     takes
+}
+
+/// One more sample each to the first `left` entries of `takes` in `order` (indices into it).
+fn one_each(takes: &mut [(usize, u64)], order: impl IntoIterator<Item = usize>, left: u64) {
+    for k in order.into_iter().take(left as usize) {
+        takes[k].1 += 1;
+    }
 }
 
 /// The least level (a double) at which a pixel of effective count `eff` that takes `m`
@@ -619,7 +619,7 @@ mod tests {
     fn fill_every_pixel(open: &[(usize, f64, u32)], spare: u64) -> Vec<(usize, u64)> {
         let (lo, hi) = water_level_every_pixel(open, spare);
         let mut takes: Vec<(usize, u64)> = open.iter().map(|o| (o.0, take_to(lo, o))).collect();
-        let mut left = spare.saturating_sub(takes.iter().map(|t| t.1).sum());
+        let left = spare.saturating_sub(takes.iter().map(|t| t.1).sum());
         let mut next: Vec<(usize, f64, usize)> = open
             .iter()
             .enumerate()
@@ -627,13 +627,7 @@ mod tests {
             .map(|(k, &(i, eff, _))| (i, eff, k))
             .collect();
         next.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-        for (.., k) in next {
-            if left == 0 {
-                break;
-            }
-            takes[k].1 += 1;
-            left -= 1;
-        }
+        one_each(&mut takes, next.into_iter().map(|t| t.2), left);
         takes
     }
 
