@@ -754,7 +754,7 @@ impl Layer {
 /// sum and weight beside them ([`Layer::lum`]), computed while each part is at hand rather
 /// than in a second pass over every window frame's parts (the walkthrough's base and all
 /// layers are 39 MB of parts at 240×150; that pass took about 6 ms of a 188-ms frame).
-fn finish(layer: &[Splat]) -> (Vec<Part>, Vec<(f64, f64)>) {
+fn finish(layer: &[Splat]) -> FinishedFrame {
     layer
         .iter()
         .map(|s| {
@@ -1381,16 +1381,15 @@ fn covered_by(
 /// seen; without them the FLIP mean of the walkthrough, the holodeck pan and the
 /// moving-sphere box was lower at 1, 2 and 4 fresh spp, and their relative MSE too but for
 /// the box's at 2 (+0.15 %; docs/reuse.md, "Where a window's samples go").
-fn covered(seen: &[bool], (w, h): (usize, usize)) -> Vec<bool> {
-    (0..w * h)
+fn covered(seen: &[bool], size: (usize, usize)) -> Vec<bool> {
+    (0..size.0 * size.1)
         .into_par_iter()
         .map(|i| {
-            let (x, y) = (i % w, i / w);
             seen[i]
-                && (x == 0 || seen[i - 1])
-                && (x + 1 == w || seen[i + 1])
-                && (y == 0 || seen[i - w])
-                && (y + 1 == h || seen[i + w])
+                && four_neighbours(i, size)
+                    .into_iter()
+                    .flatten()
+                    .all(|n| seen[n])
         })
         .collect()
 }
