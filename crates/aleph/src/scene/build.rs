@@ -83,6 +83,10 @@ impl SceneDescription {
                 .collect(),
             masks: b.masks,
         }));
+        let sky_through_glass = lights.has_infinite()
+            && b.materials
+                .iter()
+                .any(|m| matches!(m.kind, crate::material::MaterialKind::Dielectric { .. }));
         let scene = Scene {
             camera,
             settings,
@@ -91,6 +95,7 @@ impl SceneDescription {
                 materials: b.materials,
                 textures: b.textures,
                 lights,
+                sky_through_glass,
             }),
             path: self.path,
             animation,
