@@ -682,26 +682,10 @@ impl Geometry {
     /// scene time `time`.
     #[inline]
     pub fn unoccluded(&self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> bool {
-        self.unoccluded_by(o, d, t_max, time, |_| true)
-    }
-
-    /// [`Geometry::unoccluded`] counting only the triangles `blocks` accepts (called with the
-    /// index of every present triangle the segment meets, in no fixed order, until one
-    /// blocks).
-    #[inline]
-    pub fn unoccluded_by(
-        &self,
-        o: Vec3,
-        d: Vec3,
-        t_max: f32,
-        time: f32,
-        blocks: impl Fn(u32) -> bool,
-    ) -> bool {
         let o: Vec3A = o.into();
         let d: Vec3A = d.into();
-        let keep = |t, b1, b2| self.present(t, b1, b2) && blocks(t);
         if let Some(stat) = &self.stat
-            && !stat.unoccluded(o, d, t_max, keep)
+            && !stat.unoccluded(o, d, t_max, |t, b1, b2| self.present(t, b1, b2))
         {
             return false;
         }
@@ -718,7 +702,7 @@ impl Geometry {
                 inv.transform_point3a(o),
                 inv.transform_vector3a(d),
                 t_max,
-                keep,
+                |t, b1, b2| self.present(t, b1, b2),
             )
         })
     }

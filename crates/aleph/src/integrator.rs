@@ -16,12 +16,6 @@
 //! 5 reaches equal error in 1.08–1.17× less time; with independent numbers aleph's per-sample
 //! relMSE then equals Mitsuba's `independent` sampler's (0.01102 / 0.00278 against 0.01098 /
 //! 0.00279). (An earlier measurement had found the two starts equally efficient.)
-//!
-//! **Light through one refraction.** Where a light at infinity (the sun, the environment) is
-//! hidden from a vertex only by smooth dielectrics, its light sample is also followed through
-//! the nearest one, by Snell's law on that surface's plane (manifold next-event estimation for
-//! one planar refracting vertex, Hanika et al. 2015), and the BSDF-sampled paths that sample
-//! covers count nothing: `integrator/sky.rs`, with its measurements and tests.
 
 use crate::geometry::{Hit, Ray, offset_origin};
 use crate::light::LightSample;
@@ -30,8 +24,6 @@ use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
-
-mod sky;
 
 /// Bounce at which Russian roulette starts (Mitsuba 3's `rr_depth`; measured in the module docs).
 pub const RR_START_DEPTH: u32 = 5;
@@ -247,52 +239,6 @@ struct Vertex<'a> {
     wo: Vec3,
     ns: Vec3,
     ng_side: Vec3,
-    /// Whether a light at infinity blocked on the straight way is looked for through one
-    /// refraction (`integrator/sky.rs`).
-    through_glass: bool,
-}
-
-/// A non-delta vertex whose light samples were also looked for through one refraction
-/// ([`sky`]): its point, geometric normal and shading normal (on the side light arrives from).
-#[derive(Clone, Copy)]
-struct SkyFrom {
-    p: Vec3,
-    ng: Vec3,
-    ns: Vec3,
-}
-
-/// What the path remembers for the partition of [`sky`]: the vertex before this one, if it
-/// was a [`SkyFrom`], and, when the last vertex refracted through a dielectric right after
-/// one, that vertex with the dielectric's shading normal and index.
-#[derive(Clone, Copy, Default)]
-struct SkyPath {
-    from: Option<SkyFrom>,
-    through: Option<(SkyFrom, Vec3, f32)>,
-}
-
-impl SkyPath {
-    /// Moves past the vertex at `hit` (shading normal `ns`, BSDF `bsdf`, sampled `s`): `from`
-    /// is this vertex if `sky_from` (it is a [`SkyFrom`]), and `through` is set when this
-    /// vertex refracted through a dielectric right after one.
-    #[inline]
-    fn advance(
-        &mut self,
-        hit: &Hit,
-        ns: Vec3,
-        sky_from: bool,
-        bsdf: &crate::bsdf::Bsdf,
-        s: &crate::bsdf::BsdfSample,
-    ) {
-        self.through = match (self.from, bsdf) {
-            (Some(x), crate::bsdf::Bsdf::Dielectric(d)) if s.eta != 1.0 => Some((x, ns, d.ior)),
-            _ => None,
-        };
-        self.from = sky_from.then_some(SkyFrom {
-            p: hit.p,
-            ng: hit.ng,
-            ns,
-        });
-    }
 }
 
 impl Integrator {
@@ -324,33 +270,6 @@ impl Integrator {
         })
     }
 
-    /// [`Integrator::escaped`] for `ray`, less what [`sky`] already estimated at the vertex
-    /// before the last when the ray leaves through one refraction after it (`through`, from
-    /// [`SkyPath`]; the probe that decides adds one to `rays`): there the lights at infinity
-    /// count only in directions that vertex could not have sampled.
-    #[inline]
-    fn escaped_through(
-        &self,
-        scene: &Scene,
-        ray: &Ray,
-        (prev_delta, prev_pdf, prev_n): (bool, f32, Vec3),
-        through: Option<(SkyFrom, Vec3, f32)>,
-        rays: &mut u32,
-    ) -> Vec3 {
-        if let Some((x, n, ior)) = through
-            && scene.lights.has_infinite()
-        {
-            let (covered, traced) =
-                self.estimated_through_glass(scene, (x.p, x.ng), (n, ior), ray.d, ray.time);
-            *rays += traced;
-            if covered {
-                let unsampled = |pdf: f32| if pdf > 0.0 { 0.0 } else { 1.0 };
-                return scene.lights.infinite_radiance(ray.d, x.ns, unsampled);
-            }
-        }
-        self.escaped(scene, ray.d, prev_delta, prev_pdf, prev_n)
-    }
-
     /// One light sample at vertex `at` with random numbers (`uc`, `u`), MIS-weighted against
     /// BSDF sampling and scaled by the path throughput `beta`: (its contribution to the path's
     /// radiance, shadow rays traced).
@@ -376,42 +295,23 @@ impl Integrator {
         ) else {
             return (Vec3::ZERO, 0);
         };
-        if !(ls.le.max_element() > 0.0 && ls.pdf > 0.0) {
+        if !(ls.le.max_element() > 0.0 && ls.pdf > 0.0 && ls.wi.dot(at.ng_side) > 0.0) {
             return (Vec3::ZERO, 0);
         }
-        // A light at infinity the straight way cannot reach may be seen through glass.
-        let through = at.through_glass && ls.dist.is_infinite() && !ls.delta;
         let wi = at.frame.to_local(ls.wi);
-        let f = if ls.wi.dot(at.ng_side) > 0.0 {
-            at.bsdf.eval(at.wo, wi)
-        } else {
-            Vec3::ZERO
-        };
-        let rays;
-        if through {
-            let (way, traced) = sky::straight_way(scene, at.hit.p, at.hit.ng, ls.wi, at.time);
-            match way {
-                Ok(Some(glass)) => {
-                    let (l, more) = self.sky_through_glass(scene, at, beta, &ls, glass);
-                    return (l, traced + more);
-                }
-                Err(()) => return (Vec3::ZERO, traced),
-                Ok(None) if f.max_element() <= 0.0 => return (Vec3::ZERO, traced),
-                Ok(None) => rays = traced,
-            }
-        } else if f.max_element() <= 0.0 {
+        let f = at.bsdf.eval(at.wo, wi);
+        if f.max_element() <= 0.0 {
             return (Vec3::ZERO, 0);
-        } else if !shadow_ray_clear(geo, at.hit, &ls, at.time) {
+        }
+        if !shadow_ray_clear(geo, at.hit, &ls, at.time) {
             return (Vec3::ZERO, 1);
-        } else {
-            rays = 1;
         }
         let w = if self.strategy == Strategy::Mis && !ls.delta {
             power_heuristic(ls.pdf, at.bsdf.pdf(at.wo, wi))
         } else {
             1.0
         };
-        (beta * f * wi.z.abs() * ls.le * (w / ls.pdf), rays)
+        (beta * f * wi.z.abs() * ls.le * (w / ls.pdf), 1)
     }
 
     /// MIS weight of emission that BSDF sampling hit (the previous vertex at `prev`, sampled
@@ -477,12 +377,10 @@ impl Integrator {
         let mut eta_scale = 1.0f32;
         let mut depth = 0u32;
         let mut first = FirstHit::miss(ray.d);
-        let mut sky = SkyPath::default();
         loop {
             rays += 1;
             let Some(hit) = geo.intersect(&ray) else {
-                let prev = (prev_delta, prev_pdf, prev_n);
-                l += beta * self.escaped_through(scene, &ray, prev, sky.through, &mut rays);
+                l += beta * self.escaped(scene, ray.d, prev_delta, prev_pdf, prev_n);
                 break;
             };
             if depth == 0 {
@@ -516,7 +414,6 @@ impl Integrator {
 
             // Next-event estimation.
             let nee = !bsdf.is_delta() && self.strategy != Strategy::BsdfOnly;
-            let through_glass = nee && scene.sky_through_glass && depth + 1 < self.max_depth;
             let uc_light = rng.uniform_if(nee && scene.lights.chooses_with_own_sample());
             let u_light = rng.uniform2_if(nee);
             if nee {
@@ -528,7 +425,6 @@ impl Integrator {
                     wo,
                     ns,
                     ng_side,
-                    through_glass,
                 };
                 let (le, traced) = self.direct_light(scene, &at, beta, uc_light, u_light);
                 l += le;
@@ -557,7 +453,6 @@ impl Integrator {
             if !beta.is_finite() || beta.max_element() <= 0.0 {
                 break;
             }
-            sky.advance(&hit, ns, through_glass, &bsdf, &s);
             prev_delta = s.delta;
             prev_pdf = s.pdf;
             prev_p = hit.p;

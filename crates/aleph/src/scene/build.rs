@@ -83,10 +83,6 @@ impl SceneDescription {
                 .collect(),
             masks: b.masks,
         }));
-        let sky_through_glass = lights.has_infinite()
-            && b.materials
-                .iter()
-                .any(|m| matches!(m.kind, crate::material::MaterialKind::Dielectric { .. }));
         let scene = Scene {
             camera,
             settings,
@@ -95,7 +91,6 @@ impl SceneDescription {
                 materials: b.materials,
                 textures: b.textures,
                 lights,
-                sky_through_glass,
             }),
             path: self.path,
             animation,

@@ -102,10 +102,6 @@ pub struct World {
     pub textures: Vec<Texture>,
     /// Emitters.
     pub lights: Lights,
-    /// True when some material is a dielectric and some light is at infinity: next-event
-    /// estimation then also finds the sky through one refracting surface
-    /// ([`crate::integrator`], "Light through one refraction").
-    pub sky_through_glass: bool,
 }
 
 /// A loaded scene at one frame: the shared [`World`] (reached through `Deref`, so
