@@ -19,7 +19,12 @@ difference). For each score the samples and the wall time uniform sampling needs
 than 0 judges every arm's EXR and the reference graded that many stops under the reference's
 frozen curve (`aleph tonemap --operator reinhard --curve-from reference.exr --grade EV`, as a
 user who grades the EXR darker or brighter sees it; `aleph speedup` grades the same way).
-Writes DIR/denoise.csv and DIR/denoise.md (a table per grade).
+With `--seeds N` every arm but the references is rendered under seeds 0..N-1 (seed 0 keeps the
+plain stem, seed k the suffix `-sK`) and each row is the mean of its N renders' scores, spp and
+wall times: a denoised image's scores scatter from seed to seed by more than the uniform+oidn
+curve moves between budgets (docs/denoise.md, "How much of that is one seed"). The floor's
+reference keeps seed 2 at `--reference-spp`. Writes DIR/denoise.csv (one row per render) and
+DIR/denoise.md (a table per grade, of the means).
 
 Install (CPU PyTorch comes with cvvdp; about 3 GB):
     python3 -m venv benches/.venv && benches/.venv/bin/pip install cvvdp flip-evaluator
@@ -95,7 +100,11 @@ def main():
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--grades", default="0,-2,2",
                     help="EV grades to judge at (0: as displayed; others under the reference's frozen curve)")
+    ap.add_argument("--seeds", type=int, default=1,
+                    help="render every arm but the references under seeds 0..N-1 and judge the means")
     args = ap.parse_args()
+    if args.seeds < 1:
+        sys.exit("--seeds must be at least 1")
     args.grades = [float(g) for g in args.grades.split(",")]
     os.makedirs(args.out, exist_ok=True)
 
@@ -110,6 +119,8 @@ def main():
                      ["--spp", str(n), "--denoise", "--steer-from", "0", "--min-spp", "2"]))
     runs.append(("stop+oidn", 0, "stop-oidn", ["--denoise"]))
     runs.append(("stop", 0, "stop", []))
+    runs = runs[:1] + [(arm, budget, stem if k == 0 else f"{stem}-s{k}", extra if k == 0 else [*extra, "--seed", str(k)])
+                       for arm, budget, stem, extra in runs[1:] for k in range(args.seeds)]
     # A second reference of another seed: its scores against the first are the judges' floor
     # (the reference's own noise), which the honest stop is held to.
     runs.append(("floor", args.reference_spp, "reference-seed2",
@@ -142,8 +153,8 @@ def main():
             p99 = float(np.percentile(fmap, 99))
             jod = float(metric.predict(test, ref, dim_order="HWC")[0])
             spp, wall = measured[stem]
-            rows.append(dict(grade=grade, arm=arm, budget=budget, spp=spp, wall=wall, flip=float(fmean),
-                             p99=p99, jod=jod))
+            rows.append(dict(grade=grade, arm=arm, budget=budget, stem=stem, spp=spp, wall=wall,
+                             flip=float(fmean), p99=p99, jod=jod))
             print(f"{grade:+.0f} EV {stem:>22}: {spp:7.1f} spp {wall:6.2f} s  FLIP {fmean:.4f}  p99 {p99:.4f}  "
                   f"JOD {jod:.3f}", flush=True)
 
@@ -159,8 +170,10 @@ def main():
         "Speedup: the uniform samples (time) that reach the same score, over the arm's; the last",
         "two columns against uniform+oidn (the same denoiser) instead of uniform.",
     ]
+    if args.seeds > 1:
+        lines.append(f"Each row: the mean of {args.seeds} renders, seeds 0-{args.seeds - 1}.")
     for grade in args.grades:
-        lines += table([r for r in rows if r["grade"] == grade], grade)
+        lines += table(mean_rows([r for r in rows if r["grade"] == grade]), grade)
     with open(os.path.join(args.out, "denoise.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))
@@ -179,6 +192,21 @@ def display(args, stem, grade):
         if done.returncode != 0:
             sys.exit(f"{' '.join(cmd)}: exit {done.returncode}\n{done.stderr}")
     return out
+
+
+def mean_rows(rows):
+    """`rows` with the renders of one arm and budget (its seeds) merged into their mean, in
+    order of first appearance."""
+    groups = {}
+    for r in rows:
+        groups.setdefault((r["arm"], r["budget"]), []).append(r)
+    merged = []
+    for (arm, budget), rs in groups.items():
+        m = dict(rs[0], arm=arm, budget=budget)
+        for key in ("spp", "wall", "flip", "p99", "jod"):
+            m[key] = sum(r[key] for r in rs) / len(rs)
+        merged.append(m)
+    return merged
 
 
 def table(rows, grade):
