@@ -119,8 +119,12 @@ def main():
                      ["--spp", str(n), "--denoise", "--steer-from", "0", "--min-spp", "2"]))
     runs.append(("stop+oidn", 0, "stop-oidn", ["--denoise"]))
     runs.append(("stop", 0, "stop", []))
-    runs = runs[:1] + [(arm, budget, stem if k == 0 else f"{stem}-s{k}", extra if k == 0 else [*extra, "--seed", str(k)])
-                       for arm, budget, stem, extra in runs[1:] for k in range(args.seeds)]
+    seeded = runs[:1]
+    for arm, budget, stem, extra in runs[1:]:
+        seeded.append((arm, budget, stem, extra))
+        for k in range(1, args.seeds):
+            seeded.append((arm, budget, f"{stem}-s{k}", [*extra, "--seed", str(k)]))
+    runs = seeded
     # A second reference of another seed: its scores against the first are the judges' floor
     # (the reference's own noise), which the honest stop is held to.
     runs.append(("floor", args.reference_spp, "reference-seed2",
