@@ -144,7 +144,19 @@ mod with_oidn {
         let den = rel_mse(&denoised, "", &reference);
         eprintln!("relMSE against 1024 spp: raw {raw:.4}, denoised {den:.4}");
         assert!(den < raw / 3.0, "denoised relMSE {den} against raw {raw}");
-        assert!(denoised.text.contains_key("denoiser"));
+        // The metadata names the model that ran: the large one for clean auxiliaries at 4 spp
+        // against the 16-spp auxiliary images, the high one without `cleanAux` above 16.
+        assert!(
+            denoised.text["denoiser"].contains("cleanAux true"),
+            "{}",
+            denoised.text["denoiser"]
+        );
+        let above = render(d.path(), "a", "32", &["--denoise"]);
+        assert!(
+            above.text["denoiser"].contains("quality high, cleanAux false"),
+            "{}",
+            above.text["denoiser"]
+        );
     }
 
     /// The layers `prefix`R/G/B (or X/Y/Z) of `raw` interleaved, as the denoiser takes them.

@@ -196,8 +196,9 @@ pub fn denoise_layers(
     attributes.push((
         "denoiser".to_string(),
         format!(
-            "Intel Open Image Denoise 2.5, RT filter (hdr, cleanAux); R,G,B denoised, Noisy the \
+            "Intel Open Image Denoise 2.5, RT filter (hdr, {}); R,G,B denoised, Noisy the \
              render; albedo and normal of the first non-specular surface at {} spp",
+            d.quality.describe(),
             crate::denoise::AUX_SPP
         ),
     ));

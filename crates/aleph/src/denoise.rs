@@ -55,6 +55,16 @@ pub enum Quality {
 }
 
 impl Quality {
+    /// How OIDN was asked to run, for files' metadata: its filter quality and whether the
+    /// auxiliary images were declared clean.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Quality::High => "quality high, cleanAux false",
+            Quality::HighCleanAux => "quality high, cleanAux true (the large model)",
+            Quality::Fast => "quality fast, cleanAux false",
+        }
+    }
+
     /// The model for a final image of `spp` samples per pixel (mean; fresh and reused) with
     /// auxiliary images of `aux_spp`: [`Quality::HighCleanAux`] where the auxiliaries have at
     /// least the image's samples, as OIDN's `cleanAux` asks (auxiliaries without noise
@@ -361,6 +371,8 @@ pub struct Denoised {
     pub noisy: Vec<f32>,
     /// Albedo and normal ([`render_aux`] at [`AUX_SPP`]).
     pub aux: Aux,
+    /// The model that denoised it ([`Quality::final_for`]).
+    pub quality: Quality,
 }
 
 /// Denoises `noisy`, the radiance of a render of `scene` (its current frame) of `spp` samples
@@ -375,8 +387,14 @@ pub fn denoise_render(scene: &Scene, noisy: Vec<f32>, spp: f64) -> Result<Denois
     }
     let aux = render_aux(scene, AUX_SPP, scene.settings.seed);
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    let rgb = denoise_with(&noisy, w, h, &aux, Quality::final_for(spp, AUX_SPP))?;
-    Ok(Denoised { rgb, noisy, aux })
+    let quality = Quality::final_for(spp, AUX_SPP);
+    let rgb = denoise_with(&noisy, w, h, &aux, quality)?;
+    Ok(Denoised {
+        rgb,
+        noisy,
+        aux,
+        quality,
+    })
 }
 
 /// Radius of the box over which the denoiser's residual is averaged into its bias estimate

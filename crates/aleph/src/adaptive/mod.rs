@@ -826,7 +826,12 @@ fn render_with_hooks(
         let rgb = crate::denoise::denoise_with(&noisy, w, h, &aux, quality)?;
         r.denoise_time += t.elapsed();
         r.wall += aux_time + t.elapsed();
-        r.denoised = Some(Denoised { rgb, noisy, aux });
+        r.denoised = Some(Denoised {
+            rgb,
+            noisy,
+            aux,
+            quality,
+        });
     }
     r.gbuffer = Some(GBuffer::render_aovs(scene));
     Ok(r)
