@@ -45,6 +45,33 @@ fn without_the_feature_denoise_is_refused_with_the_way_to_build_it() {
     assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
 }
 
+#[test]
+fn a_denoise_quality_without_denoising_is_refused() {
+    let d = tempdir();
+    let scene = repo("scenes/cornell-box/scene.toml");
+    let o = aleph(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--denoise-quality",
+            "fast",
+            "--spp",
+            "4",
+            "-o",
+            "x",
+        ],
+        d.path(),
+    );
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("--denoise-quality") && e.contains("--denoise"),
+        "{e}"
+    );
+    assert!(!e.contains("triangles"), "{e}");
+    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
+}
+
 #[cfg(feature = "denoise")]
 mod with_oidn {
     use super::*;
@@ -216,6 +243,27 @@ mod with_oidn {
         assert!(
             fast < raw / 3.0,
             "fast model's relMSE {fast} against raw {raw}"
+        );
+        // `--denoise-quality fast` denoises the result by that model: the same bits, and
+        // the EXR's metadata says so.
+        let chosen = render(
+            d.path(),
+            "f",
+            "4",
+            &["--denoise", "--denoise-quality", "fast"],
+        );
+        let fast_shown = interleaved(&chosen, "", ["R", "G", "B"]);
+        let fast_again = denoise_with(&noisy, 64, 64, &aux, Quality::Fast).unwrap();
+        assert!(
+            fast_shown
+                .iter()
+                .zip(&fast_again)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
+        assert!(
+            chosen.text["denoiser"].contains("quality fast"),
+            "{}",
+            chosen.text["denoiser"]
         );
     }
 

@@ -33,7 +33,7 @@ fn bench_scene(c: &mut Criterion, name: &str, path: &str, size: [u32; 2]) {
         budget_spp: Some(2.0),
         ..AdaptiveSettings::default()
     };
-    let mut window = ReuseWindow::new(K as u32);
+    let mut window = ReuseWindow::new(K);
     for f in 0..K as i64 {
         let frame = sequence.frame(f).unwrap();
         window.keep_from(window_start(f, 0, K));

@@ -202,7 +202,8 @@ def render(
             the count since the previous call, so ``tqdm.update(p.samples)`` works.
         **options: the other :class:`RenderJob` options: ``time`` (seconds), ``max_depth``,
             ``reuse_window``, ``operator``, ``exposure``, ``fov``, ``ppd``, ``output`` (also
-            write STEM.exr and STEM.png, as ``aleph render -o STEM``), ``aov``, ``base_dir``,
+            write STEM.exr and STEM.png, as ``aleph render -o STEM``), ``aov``, ``denoise``,
+            ``denoise_quality``, ``preview``, ``base_dir``,
             and ``sampling`` and ``display``: dicts of the job record's tables, for every
             other option (``sampling={"max_spp": 8192, "latitude_ev": 0}``).
 

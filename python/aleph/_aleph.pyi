@@ -57,6 +57,10 @@ class RenderJob:
             image and the aovs add ``Noisy.R/G/B`` (the render), ``Denoising Albedo.R/G/B``
             and ``Denoising Normal.X/Y/Z``; a JobError unless ``DENOISER`` (a build with the
             ``denoise`` feature, docs/python.md).
+        denoise_quality: the model of the final denoising (``--denoise-quality``):
+            ``"high"`` (OIDN's high-quality filter, its large model for clean auxiliary
+            images up to 16 spp) or ``"fast"`` (OIDN's fast filter); a JobError for another
+            name, or for ``"fast"`` without ``denoise``.
         preview: a progressive preview of a still (``--preview``): the perceptual sampler from
             2 spp, OUTPUT.png rewritten atomically after every pass until the perceptual stop
             or ``time``; a JobError with frames, another sampler or an animated scene.
@@ -96,6 +100,7 @@ class RenderJob:
         output: Union[None, str, os.PathLike[str]] = None,
         aov: bool = False,
         denoise: bool = False,
+        denoise_quality: str = "high",
         preview: bool = False,
         base_dir: Union[None, str, os.PathLike[str]] = None,
         sampling: Optional[Dict[str, Any]] = None,

@@ -48,6 +48,7 @@ pub struct Options<'py> {
     pub output: Option<PathBuf>,
     pub aov: bool,
     pub denoise: bool,
+    pub denoise_quality: String,
     pub preview: bool,
     pub sampling: Option<Bound<'py, PyDict>>,
     pub display: Option<Bound<'py, PyDict>>,
@@ -60,7 +61,7 @@ impl RenderJob {
     #[pyo3(signature = (scene, *, spp=None, time=None, sampler="perceptual".to_string(),
         resolution=None, seed=None, max_depth=None, frames=None, reuse_window=None,
         operator=None, exposure=None, fov=None, ppd=None, output=None, aov=false,
-        denoise=false, preview=false, base_dir=None, sampling=None, display=None))]
+        denoise=false, denoise_quality="high".to_string(), preview=false, base_dir=None, sampling=None, display=None))]
     #[allow(clippy::too_many_arguments)]
     fn new<'py>(
         scene: &Bound<'py, PyAny>,
@@ -79,6 +80,7 @@ impl RenderJob {
         output: Option<PathBuf>,
         aov: bool,
         denoise: bool,
+        denoise_quality: String,
         preview: bool,
         base_dir: Option<PathBuf>,
         sampling: Option<Bound<'py, PyDict>>,
@@ -101,6 +103,7 @@ impl RenderJob {
             output,
             aov,
             denoise,
+            denoise_quality,
             preview,
             sampling,
             display,
@@ -275,6 +278,15 @@ fn build(path: PathBuf, o: Options<'_>) -> PyResult<Job> {
     job.output.stem = o.output.map(|s| strip_image_ext(&s));
     job.output.aov = o.aov;
     job.output.denoise = o.denoise;
+    job.output.denoise_quality = match o.denoise_quality.as_str() {
+        "high" => aleph::denoise::FinalQuality::High,
+        "fast" => aleph::denoise::FinalQuality::Fast,
+        other => {
+            return Err(JobError::new_err(format!(
+                "denoise_quality: {other:?} is not \"high\" or \"fast\""
+            )));
+        }
+    };
     job.output.preview = o.preview;
     job.validate().map_err(crate::job_error)?;
     Ok(job)

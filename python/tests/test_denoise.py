@@ -39,6 +39,24 @@ def test_denoised_still_equals_cli_exr(tmp_path, cli, cornell):
     assert "Open Image Denoise" in r.attributes["denoiser"]
 
 
+def test_fast_denoising_equals_cli_and_is_named(tmp_path, cli, cornell):
+    size = ["--spp", "4", "--resolution", "48x40"]
+    cli_render(cli, cornell, tmp_path, *size, "--denoise", "--denoise-quality", "fast")
+    r = aleph.render(cornell, spp=4, resolution=(48, 40), denoise=True, denoise_quality="fast")
+    assert_matches_exr(r.rgb, r.aovs, exr_channels(tmp_path / "cli.exr"))
+    assert "quality fast" in r.attributes["denoiser"]
+    high = aleph.render(cornell, spp=4, resolution=(48, 40), denoise=True)
+    assert "cleanAux true" in high.attributes["denoiser"]
+    assert not same_bits(r.rgb, high.rgb)
+
+
+def test_denoise_quality_is_checked(cornell):
+    with pytest.raises(aleph.JobError, match="denoise_quality"):
+        aleph.RenderJob(cornell, spp=4, denoise=True, denoise_quality="best")
+    with pytest.raises(aleph.JobError, match="--denoise"):
+        aleph.RenderJob(cornell, spp=4, denoise_quality="fast")
+
+
 def test_denoised_sequence_equals_cli_frames(tmp_path, cli, cornell_motion):
     """Reusing frames are denoised after the loop (with no output file too)."""
     args = ["--frames", "2..3", "--spp", "4", "--resolution", "32x32", "--denoise"]

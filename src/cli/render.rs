@@ -59,6 +59,24 @@ pub enum ErrorEstimateArg {
     StandardError,
 }
 
+/// The final denoising's model on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum DenoiseQualityArg {
+    /// OIDN's high-quality filter (its large model for clean auxiliary images up to 16 spp).
+    High,
+    /// OIDN's fast filter.
+    Fast,
+}
+
+impl From<DenoiseQualityArg> for aleph::denoise::FinalQuality {
+    fn from(q: DenoiseQualityArg) -> Self {
+        match q {
+            DenoiseQualityArg::High => aleph::denoise::FinalQuality::High,
+            DenoiseQualityArg::Fast => aleph::denoise::FinalQuality::Fast,
+        }
+    }
+}
+
 /// Where visibility is judged.
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum VisibilityArg {
@@ -302,6 +320,11 @@ pub struct RenderArgs {
     /// (docs/denoise.md).
     #[arg(long)]
     pub(super) denoise: bool,
+    /// The model the final image is denoised by, as Blender's denoiser quality: high (OIDN's
+    /// high-quality filter; its large model for clean auxiliary images up to 16 spp) or fast
+    /// (OIDN's fast filter: quicker, a worse image per sample; docs/denoise.md).
+    #[arg(long, value_enum, value_name = "Q", default_value = "high")]
+    pub(super) denoise_quality: DenoiseQualityArg,
     /// A progressive preview of a still: the perceptual sampler from 2 spp, denoised when the
     /// build has the denoiser, OUT.png rewritten (atomically) after every pass until the
     /// perceptual stop or --time; OUT.exr at the end (docs/denoise.md).
@@ -434,6 +457,7 @@ impl RenderArgs {
         });
         job.output.aov = self.aov;
         job.output.denoise = self.denoise;
+        job.output.denoise_quality = self.denoise_quality.into();
         job.output.preview = self.preview;
         job.validate()?;
         Ok(job)

@@ -35,6 +35,24 @@ pub const PREVIEW_FIRST_AUX_SPP: u32 = 2;
 /// Seed offset of the auxiliary images, independent of the render's samples.
 const AUX_SEED_XOR: u64 = 0xA0C5_11AE;
 
+/// The final denoising a user asks for (`aleph render --denoise-quality`, a job's
+/// `output.denoise_quality`), as Blender's denoiser "Quality" setting offers it: the model the
+/// EXR's and the PNG's image is denoised by. A preview's refinements and the loop's
+/// judgements use the fast model either way.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FinalQuality {
+    /// OIDN's high-quality filter, its large model for clean auxiliary images where they have
+    /// at least the image's samples ([`Quality::final_for`]).
+    #[default]
+    High,
+    /// OIDN's fast filter ([`Quality::Fast`]): on the Cornell box at 256² and 2 cores 0.04 s
+    /// against the large model's 0.15 s, and a worse image per sample but a better one per
+    /// second there; on the slower holodeck worse per second too (docs/denoise.md, "Which
+    /// model and how many auxiliary samples, per unit of time").
+    Fast,
+}
+
 /// OIDN's filter quality ("quality" of the RT filter, OIDN 2 documentation) and whether it is
 /// told the auxiliary images are clean (`cleanAux`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -62,6 +80,15 @@ impl Quality {
             Quality::High => "quality high, cleanAux false",
             Quality::HighCleanAux => "quality high, cleanAux true (the large model)",
             Quality::Fast => "quality fast, cleanAux false",
+        }
+    }
+
+    /// The model for a final image a user asked `want` of: [`Quality::final_for`] for
+    /// [`FinalQuality::High`], [`Quality::Fast`] for [`FinalQuality::Fast`].
+    pub fn chosen(want: FinalQuality, spp: f64, aux_spp: u32) -> Quality {
+        match want {
+            FinalQuality::High => Quality::final_for(spp, aux_spp),
+            FinalQuality::Fast => Quality::Fast,
         }
     }
 
@@ -377,17 +404,22 @@ pub struct Denoised {
 
 /// Denoises `noisy`, the radiance of a render of `scene` (its current frame) of `spp` samples
 /// per pixel (mean, fresh and reused), with auxiliary images rendered at [`AUX_SPP`] samples
-/// per pixel from the scene's seed, by the model [`Quality::final_for`] picks.
+/// per pixel from the scene's seed, by the model [`Quality::chosen`] picks for `want`.
 ///
 /// # Errors
 /// As [`denoise`].
-pub fn denoise_render(scene: &Scene, noisy: Vec<f32>, spp: f64) -> Result<Denoised, DenoiseError> {
+pub fn denoise_render(
+    scene: &Scene,
+    noisy: Vec<f32>,
+    spp: f64,
+    want: FinalQuality,
+) -> Result<Denoised, DenoiseError> {
     if !AVAILABLE {
         return Err(DenoiseError::NotBuilt);
     }
     let aux = render_aux(scene, AUX_SPP, scene.settings.seed);
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    let quality = Quality::final_for(spp, AUX_SPP);
+    let quality = Quality::chosen(want, spp, AUX_SPP);
     let rgb = denoise_with(&noisy, w, h, &aux, quality)?;
     Ok(Denoised {
         rgb,

@@ -226,6 +226,9 @@ pub struct AdaptiveSettings {
     /// perceptual rule judges the error of the *denoised* image (its two half-buffers denoised
     /// apart, [`criterion`]'s module docs), and the result carries the denoised image.
     pub denoise: bool,
+    /// The model the result is denoised by, when it is ([`crate::denoise::FinalQuality`];
+    /// default high).
+    pub denoise_quality: crate::denoise::FinalQuality,
     /// Memory a frame that reuses earlier frames, or is reused, may take for reuse, bytes:
     /// its share of the job's reuse memory ([`crate::reuse::frame_memory`]), which decides
     /// how many samples a pixel keeps for the frames after it ([`crate::reuse::kept_spp`]).
@@ -292,6 +295,7 @@ impl Default for AdaptiveSettings {
             variance_threshold: CYCLES_DEFAULT_THRESHOLD,
             rows: None,
             denoise: false,
+            denoise_quality: crate::denoise::FinalQuality::High,
             reuse_frame_memory: crate::reuse::frame_memory(
                 crate::job::DEFAULT_REUSE_WINDOW,
                 crate::reuse::DEFAULT_MEMORY,
@@ -822,7 +826,11 @@ fn render_with_hooks(
         let noisy = r.film.mean_rgb();
         // The refinements were denoised by the fast model; the result by the high one.
         let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-        let quality = crate::denoise::Quality::final_for(r.mean_spp(), crate::denoise::AUX_SPP);
+        let quality = crate::denoise::Quality::chosen(
+            s.denoise_quality,
+            r.mean_spp(),
+            crate::denoise::AUX_SPP,
+        );
         let rgb = crate::denoise::denoise_with(&noisy, w, h, &aux, quality)?;
         r.denoise_time += t.elapsed();
         r.wall += aux_time + t.elapsed();

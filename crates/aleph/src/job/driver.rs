@@ -285,6 +285,7 @@ impl Frame<'_> {
                     scene,
                     result.film.mean_rgb(),
                     spp,
+                    job.output.denoise_quality,
                 )?)
             }
             _ => None,

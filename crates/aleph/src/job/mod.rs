@@ -296,6 +296,9 @@ pub struct OutputSpec {
     /// Denoise each frame with Open Image Denoise ([`crate::denoise`]): the EXR's RGB and the
     /// PNG are the denoised image, the raw one is kept as `Noisy.R/G/B`.
     pub denoise: bool,
+    /// The model the final image is denoised by ([`crate::denoise::FinalQuality`], default
+    /// high); only with `denoise` or `preview`.
+    pub denoise_quality: crate::denoise::FinalQuality,
     /// A progressive preview of a still: the perceptual sampler starts at 2 spp and steers
     /// from its first pass ([`RenderJob::adaptive_settings`]), the image is denoised when the
     /// build can ([`crate::denoise::AVAILABLE`]), and STEM.png is rewritten (atomically) after
@@ -310,6 +313,7 @@ impl Default for OutputSpec {
             aov: false,
             sequence_outputs: true,
             denoise: false,
+            denoise_quality: crate::denoise::FinalQuality::High,
             preview: false,
         }
     }
@@ -487,6 +491,12 @@ impl RenderJob {
                         .into(),
                 );
             }
+        }
+        if self.output.denoise_quality != crate::denoise::FinalQuality::High && !self.denoises() {
+            return bad(
+                "--denoise-quality (output.denoise_quality): nothing is denoised; add --denoise"
+                    .into(),
+            );
         }
         self.validate_preview()?;
         self.validate_reuse()
@@ -730,6 +740,7 @@ impl RenderJob {
             variance_threshold: s.noise_threshold,
             rows: None,
             denoise: self.denoises(),
+            denoise_quality: self.output.denoise_quality,
             reuse_frame_memory: crate::reuse::frame_memory(
                 self.reuse_window(),
                 self.reuse_memory(),
