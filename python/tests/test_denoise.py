@@ -50,13 +50,6 @@ def test_fast_denoising_equals_cli_and_is_named(tmp_path, cli, cornell):
     assert not same_bits(r.rgb, high.rgb)
 
 
-def test_denoise_quality_is_checked(cornell):
-    with pytest.raises(aleph.JobError, match="denoise_quality"):
-        aleph.RenderJob(cornell, spp=4, denoise=True, denoise_quality="best")
-    with pytest.raises(aleph.JobError, match="--denoise"):
-        aleph.RenderJob(cornell, spp=4, denoise_quality="fast")
-
-
 def test_denoised_sequence_equals_cli_frames(tmp_path, cli, cornell_motion):
     """Reusing frames are denoised after the loop (with no output file too)."""
     args = ["--frames", "2..3", "--spp", "4", "--resolution", "32x32", "--denoise"]

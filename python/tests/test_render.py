@@ -274,6 +274,8 @@ def test_preview_rewrites_the_png_and_ends_on_time(tmp_path, cornell):
     "kw,words",
     [
         ({"preview": True, "sampler": "uniform"}, "--preview"),
+        ({"denoise_quality": "best"}, "denoise_quality"),
+        ({"denoise_quality": "fast"}, "nothing is denoised"),
         pytest.param(
             {"denoise": True},
             "--features denoise",

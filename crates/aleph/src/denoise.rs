@@ -398,7 +398,7 @@ pub struct Denoised {
     pub noisy: Vec<f32>,
     /// Albedo and normal ([`render_aux`] at [`AUX_SPP`]).
     pub aux: Aux,
-    /// The model that denoised it ([`Quality::final_for`]).
+    /// The model that denoised it ([`Quality::chosen`]).
     pub quality: Quality,
 }
 
