@@ -17,59 +17,38 @@ fn aleph(args: &[&str], cwd: &Path) -> std::process::Output {
         .unwrap()
 }
 
+/// Runs `aleph render` of the Cornell box at 4 spp with `flags`, which it must refuse before
+/// rendering (exit 2, no scene loaded, nothing written); returns its error output.
+fn refused(flags: &[&str]) -> String {
+    let d = tempdir();
+    let scene = repo("scenes/cornell-box/scene.toml");
+    let mut args = vec!["render", scene.to_str().unwrap(), "--spp", "4", "-o", "x"];
+    args.extend(flags);
+    let o = aleph(&args, d.path());
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(!e.contains("triangles"), "{e}");
+    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
+    e
+}
+
 #[cfg(not(feature = "denoise"))]
 #[test]
 fn without_the_feature_denoise_is_refused_with_the_way_to_build_it() {
-    let d = tempdir();
-    let scene = repo("scenes/cornell-box/scene.toml");
-    let o = aleph(
-        &[
-            "render",
-            scene.to_str().unwrap(),
-            "--denoise",
-            "--spp",
-            "4",
-            "-o",
-            "x",
-        ],
-        d.path(),
-    );
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{e}");
+    let e = refused(&["--denoise"]);
     assert!(
         e.contains("--denoise") && e.contains("--features denoise") && e.contains("oidn.sh"),
         "{e}"
     );
-    // Refused before rendering: no scene was loaded, nothing written.
-    assert!(!e.contains("triangles"), "{e}");
-    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
 }
 
 #[test]
 fn a_denoise_quality_without_denoising_is_refused() {
-    let d = tempdir();
-    let scene = repo("scenes/cornell-box/scene.toml");
-    let o = aleph(
-        &[
-            "render",
-            scene.to_str().unwrap(),
-            "--denoise-quality",
-            "fast",
-            "--spp",
-            "4",
-            "-o",
-            "x",
-        ],
-        d.path(),
-    );
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{e}");
+    let e = refused(&["--denoise-quality", "fast"]);
     assert!(
-        e.contains("--denoise-quality") && e.contains("--denoise"),
+        e.contains("--denoise-quality") && e.contains("add --denoise"),
         "{e}"
     );
-    assert!(!e.contains("triangles"), "{e}");
-    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
 }
 
 #[cfg(feature = "denoise")]
