@@ -47,9 +47,10 @@ pub enum FinalQuality {
     #[default]
     High,
     /// OIDN's fast filter ([`Quality::Fast`]): on the Cornell box at 256² and 2 cores 0.04 s
-    /// against the large model's 0.15 s, and a worse image per sample but a better one per
-    /// second there; on the slower holodeck worse per second too (docs/denoise.md, "Which
-    /// model and how many auxiliary samples, per unit of time").
+    /// against the large model's 0.15 s; a worse image per sample on all four bundled stills,
+    /// a better one per second on the Cornell box, the Mori knob and Lost Empire at 2–8 spp,
+    /// a worse one on the holodeck (docs/denoise.md, "Which model and how many auxiliary
+    /// samples, per unit of time").
     Fast,
 }
 
