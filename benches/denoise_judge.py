@@ -23,7 +23,8 @@ With `--seeds N` every arm but the references is rendered under seeds 0..N-1 (se
 plain stem, seed k the suffix `-sK`) and each row is the mean of its N renders' scores, spp and
 wall times: a denoised image's scores scatter from seed to seed by more than the uniform+oidn
 curve moves between budgets (docs/denoise.md, "How much of that is one seed"). The floor's
-reference keeps seed 2 at `--reference-spp`. Writes DIR/denoise.csv (one row per render) and
+reference keeps seed 2 at `--reference-spp`. `--denoise-quality fast` gives every denoised arm
+`aleph render --denoise-quality fast` (OIDN's fast model for the result). Writes DIR/denoise.csv (one row per render) and
 DIR/denoise.md (a table per grade, of the means).
 
 Install (CPU PyTorch comes with cvvdp; about 3 GB):
@@ -102,22 +103,26 @@ def main():
                     help="EV grades to judge at (0: as displayed; others under the reference's frozen curve)")
     ap.add_argument("--seeds", type=int, default=1,
                     help="render every arm but the references under seeds 0..N-1 and judge the means")
+    ap.add_argument("--denoise-quality", choices=["high", "fast"], default="high",
+                    help="the denoised arms' final model (aleph render --denoise-quality); "
+                         "use another --out per model, the renders are cached by name")
     args = ap.parse_args()
     if args.seeds < 1:
         sys.exit("--seeds must be at least 1")
     args.grades = [float(g) for g in args.grades.split(",")]
     os.makedirs(args.out, exist_ok=True)
 
+    dq = ["--denoise-quality", args.denoise_quality]
     runs = []  # (arm, budget, stem, args)
     runs.append(("reference", args.reference_spp, "reference", ["--sampler", "uniform", "--spp", str(args.reference_spp)]))
     for n in UNIFORM:
         runs.append(("uniform", n, f"uniform-{n}", ["--sampler", "uniform", "--spp", str(n)]))
     for n in DENOISED:
-        runs.append(("uniform+oidn", n, f"uniform-oidn-{n}", ["--sampler", "uniform", "--spp", str(n), "--denoise"]))
+        runs.append(("uniform+oidn", n, f"uniform-oidn-{n}", ["--sampler", "uniform", "--spp", str(n), "--denoise", *dq]))
     for n in PERCEPTUAL:
         runs.append(("perceptual+oidn", n, f"perceptual-oidn-{n}",
-                     ["--spp", str(n), "--denoise", "--steer-from", "0", "--min-spp", "2"]))
-    runs.append(("stop+oidn", 0, "stop-oidn", ["--denoise"]))
+                     ["--spp", str(n), "--denoise", *dq, "--steer-from", "0", "--min-spp", "2"]))
+    runs.append(("stop+oidn", 0, "stop-oidn", ["--denoise", *dq]))
     runs.append(("stop", 0, "stop", []))
     seeded = runs[:1]
     for arm, budget, stem, extra in runs[1:]:
