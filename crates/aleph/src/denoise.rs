@@ -419,15 +419,33 @@ pub fn denoise_render(
         return Err(DenoiseError::NotBuilt);
     }
     let aux = render_aux(scene, AUX_SPP, scene.settings.seed);
-    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    let quality = Quality::chosen(want, spp, AUX_SPP);
-    let rgb = denoise_with(&noisy, w, h, &aux, quality)?;
-    Ok(Denoised {
-        rgb,
-        noisy,
-        aux,
-        quality,
-    })
+    Denoised::of(scene, noisy, aux, spp, want)
+}
+
+impl Denoised {
+    /// `noisy`, the radiance of a render of `scene` of `spp` samples per pixel (mean, fresh and
+    /// reused), denoised with its auxiliary images `aux` (made at [`AUX_SPP`]) by the model
+    /// [`Quality::chosen`] picks for `want`.
+    ///
+    /// # Errors
+    /// As [`denoise`].
+    pub fn of(
+        scene: &Scene,
+        noisy: Vec<f32>,
+        aux: Aux,
+        spp: f64,
+        want: FinalQuality,
+    ) -> Result<Denoised, DenoiseError> {
+        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+        let quality = Quality::chosen(want, spp, AUX_SPP);
+        let rgb = denoise_with(&noisy, w, h, &aux, quality)?;
+        Ok(Denoised {
+            rgb,
+            noisy,
+            aux,
+            quality,
+        })
+    }
 }
 
 /// Radius of the box over which the denoiser's residual is averaged into its bias estimate

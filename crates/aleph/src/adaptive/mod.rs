@@ -822,24 +822,17 @@ fn render_with_hooks(
     r.denoise_time = aux_time + hooks.denoise_time.get();
     if s.denoise {
         let t = Instant::now();
-        let aux = hooks.take_aux();
-        let noisy = r.film.mean_rgb();
-        // The refinements were denoised by the fast model; the result by the high one.
-        let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-        let quality = crate::denoise::Quality::chosen(
-            s.denoise_quality,
+        // The refinements were denoised by the fast model; the result by the one the job asks.
+        let denoised = Denoised::of(
+            scene,
+            r.film.mean_rgb(),
+            hooks.take_aux(),
             r.mean_spp(),
-            crate::denoise::AUX_SPP,
-        );
-        let rgb = crate::denoise::denoise_with(&noisy, w, h, &aux, quality)?;
+            s.denoise_quality,
+        )?;
         r.denoise_time += t.elapsed();
         r.wall += aux_time + t.elapsed();
-        r.denoised = Some(Denoised {
-            rgb,
-            noisy,
-            aux,
-            quality,
-        });
+        r.denoised = Some(denoised);
     }
     r.gbuffer = Some(GBuffer::render_aovs(scene));
     Ok(r)
