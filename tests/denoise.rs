@@ -329,6 +329,51 @@ mod with_oidn {
     }
 
     #[test]
+    fn a_budget_with_the_denoiser_is_rendered_uniformly_unless_steer_from_is_given() {
+        // Measured no better than uniform with the same denoiser, in more time
+        // (aleph::job::DENOISED_STEER_FROM_SPP): the perceptual sampler renders the budget as
+        // the uniform sampler does, bit for bit, and says so; --steer-from still steers it.
+        let d = tempdir();
+        let scene = repo("scenes/cornell-box/scene.toml");
+        let run = |stem: &str, extra: &[&str]| {
+            let mut args = vec![
+                "render",
+                scene.to_str().unwrap(),
+                "--resolution",
+                "32x32",
+                "--spp",
+                "128",
+                "--denoise",
+                "-o",
+                stem,
+            ];
+            args.extend(extra);
+            let o = aleph(&args, d.path());
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let said = String::from_utf8_lossy(&o.stdout).into_owned();
+            (
+                read_exr_raw(&d.path().join(format!("{stem}.exr"))).unwrap(),
+                said,
+            )
+        };
+        let (perceptual, said) = run("p", &[]);
+        assert!(
+            said.contains("a budget with --denoise: rendered uniformly"),
+            "{said}"
+        );
+        let (uniform, _) = run("u", &["--sampler", "uniform"]);
+        for c in ["R", "G", "B", "Noisy.R", "Noisy.G", "Noisy.B"] {
+            let same = channel(&perceptual, c)
+                .iter()
+                .zip(channel(&uniform, c))
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "{c} differs from the uniform render");
+        }
+        let (_, said) = run("s", &["--steer-from", "128"]);
+        assert!(said.contains("% of pixels below threshold"), "{said}");
+    }
+
+    #[test]
     fn the_stop_with_the_denoiser_starts_from_32_spp_and_a_preview_from_2() {
         let first = |denoise: bool, preview: bool, spp: Option<f64>, min: u32| {
             let mut job = aleph::job::RenderJob::new(repo("scenes/cornell-box/scene.toml"));

@@ -39,7 +39,7 @@ fn a_sequence_renders_through_the_library() {
     job.frames = Some([2, 4]);
     job.scene.resolution = Some([32, 24]);
     job.budget.spp = Some(8.0);
-    job.sampling.steer_from_spp = 0.0;
+    job.sampling.steer_from_spp = Some(0.0);
     job.sampling.min_spp = 4;
     job.sampling.reuse_window = Some(0);
     job.output.stem = Some(dir.path().join("seq"));
@@ -95,7 +95,7 @@ fn sample_parts_and_tiles_render_and_merge_through_the_library() {
     let dir = tempdir();
     let mut job = small("scenes/cornell-box/scene.toml");
     job.budget.spp = Some(16.0);
-    job.sampling.steer_from_spp = 0.0;
+    job.sampling.steer_from_spp = Some(0.0);
     job.sampling.min_spp = 4;
     job.output.stem = Some(dir.path().join("t"));
     let tile = |index| Split::Tile {

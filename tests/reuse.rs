@@ -158,7 +158,7 @@ fn still_camera_frames(steer_from: Option<f64>) -> AdaptiveResult {
     let scene = cornell_sequence(dir.path(), 32, STILL_CAMERA, "");
     let mut j = job(&scene, 7, 16.0, [0, 3]);
     if let Some(s) = steer_from {
-        j.sampling.steer_from_spp = s;
+        j.sampling.steer_from_spp = Some(s);
     }
     let keep = run(&j);
     let (f0, f3) = (keep.frame(0), keep.frame(3));
@@ -405,7 +405,7 @@ fn frame_3_matches_its_reference(scene: &Path) -> AdaptiveResult {
 fn frame_3_matches_its_reference_steered(scene: &Path, steer_from: Option<f64>) -> AdaptiveResult {
     let mut j = job(scene, 7, 16.0, [0, 3]);
     if let Some(s) = steer_from {
-        j.sampling.steer_from_spp = s;
+        j.sampling.steer_from_spp = Some(s);
     }
     let keep = run(&j);
     let f3 = keep.frame(3);

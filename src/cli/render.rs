@@ -109,14 +109,11 @@ pub struct SamplingArgs {
     pub max_spp: u32,
     /// The smallest --spp budget the adaptive samplers steer: a smaller one is rendered
     /// uniformly and nothing is judged (below 128 spp the decisions measured costlier than
-    /// their savings). 0 steers every budget.
-    #[arg(
-        long,
-        value_name = "SPP",
-        default_value_t = aleph::adaptive::STEER_FROM_SPP,
-        help_heading = "Adaptive sampling"
-    )]
-    pub steer_from: f64,
+    /// their savings). 0 steers every budget. Default 128; with --denoise no budget is
+    /// steered (with the denoiser in its loop the sampler measured no better than uniform
+    /// sampling with the same denoiser, in more time), unless this is given.
+    #[arg(long, value_name = "SPP", help_heading = "Adaptive sampling")]
+    pub steer_from: Option<f64>,
     /// Stop after this many seconds of rendering: the passes, the guide and the decisions
     /// between them (loading the scene and writing the outputs come on top). The last pass is
     /// sized from the measured sample rate to land on the budget. The image then depends on
@@ -766,6 +763,14 @@ pub(super) fn summary_line(
                  nothing judged",
                 settings.steer_from_spp
             ),
+            None if settings.criterion != Criterion::Uniform
+                && !settings.steers()
+                && settings.steer_from_spp == aleph::job::DENOISED_STEER_FROM_SPP =>
+            {
+                "a budget with --denoise: rendered uniformly, nothing judged (--steer-from \
+                 steers it)"
+                    .to_string()
+            }
             None if settings.criterion != Criterion::Uniform && !settings.steers() => format!(
                 "budget under --steer-from {} spp: rendered uniformly, nothing judged",
                 settings.steer_from_spp
