@@ -358,7 +358,7 @@ mod with_oidn {
         };
         let (perceptual, said) = run("p", &[]);
         assert!(
-            said.contains("a budget with --denoise: rendered uniformly"),
+            said.contains("a budget with --denoise (--steer-from steers it): rendered uniformly"),
             "{said}"
         );
         let (uniform, _) = run("u", &["--sampler", "uniform"]);

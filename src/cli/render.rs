@@ -718,6 +718,16 @@ fn reused(r: &aleph::adaptive::ReuseReport) -> String {
     )
 }
 
+/// Why a budget was not steered, for the summary line: under `--steer-from`, or a budget with
+/// the denoiser ([`aleph::job::DENOISED_STEER_FROM_SPP`]).
+fn unsteered(settings: &AdaptiveSettings) -> String {
+    if settings.steer_from_spp == aleph::job::DENOISED_STEER_FROM_SPP {
+        "a budget with --denoise (--steer-from steers it)".to_string()
+    } else {
+        format!("budget under --steer-from {} spp", settings.steer_from_spp)
+    }
+}
+
 /// The one-line summary of a render.
 pub(super) fn summary_line(
     scene: &Scene,
@@ -758,23 +768,16 @@ pub(super) fn summary_line(
                 "{:.1} % of pixels below threshold",
                 100.0 * result.converged_fraction
             ),
-            None if result.reuse.is_some() => format!(
-                "budget under --steer-from {} spp: fresh samples levelled with the reused ones, \
-                 nothing judged",
-                settings.steer_from_spp
-            ),
-            None if settings.criterion != Criterion::Uniform
-                && !settings.steers()
-                && settings.steer_from_spp == aleph::job::DENOISED_STEER_FROM_SPP =>
-            {
-                "a budget with --denoise: rendered uniformly, nothing judged (--steer-from \
-                 steers it)"
-                    .to_string()
+            None if result.reuse.is_some() => {
+                let why = unsteered(settings);
+                format!("{why}: fresh samples levelled with the reused ones, nothing judged")
             }
-            None if settings.criterion != Criterion::Uniform && !settings.steers() => format!(
-                "budget under --steer-from {} spp: rendered uniformly, nothing judged",
-                settings.steer_from_spp
-            ),
+            None if settings.criterion != Criterion::Uniform && !settings.steers() => {
+                format!(
+                    "{}: rendered uniformly, nothing judged",
+                    unsteered(settings)
+                )
+            }
             None => "no threshold judged".to_string(),
         },
         secs,
