@@ -293,7 +293,16 @@ impl Distribution1D {
             0.5
         };
         let n = self.len() as f32;
-        let x = ((i as f32 + du) / n).min(1.0 - f32::EPSILON / 2.0);
+        let mut x = ((i as f32 + du) / n).min(1.0 - f32::EPSILON / 2.0);
+        // Rounding can carry a point at either end of its cell into the neighbour (du = 1
+        // where u lies within an ulp of the cell's upper CDF; (i + du) / n · n just below i):
+        // step it back so that [`Distribution1D::density`] finds the cell that was sampled.
+        while x > 0.0 && ((x * n) as usize) > i {
+            x = x.next_down();
+        }
+        while ((x * n) as usize) < i {
+            x = x.next_up();
+        }
         (x, pmf * n, i)
     }
 
@@ -469,6 +478,32 @@ mod tests {
                 let (i, p) = d.sample(u);
                 assert_eq!(i, scanned(&d, u), "n = {n}, u = {u}");
                 assert_eq!(p, d.pmf(i));
+            }
+        }
+    }
+
+    #[test]
+    fn a_continuous_sample_lies_in_the_cell_whose_density_it_reports() {
+        // Draws within an ulp of a cell's upper CDF round du to 1 and (i + 1) / n: the point
+        // then sat on the next cell's start, where `density` finds the next cell.
+        let mut rng = Rng::new(29, 3);
+        for n in [3usize, 16, 100, 1024] {
+            let w: Vec<f32> = (0..n).map(|_| 0.01 + rng.uniform()).collect();
+            let d = Distribution1D::new(w).unwrap();
+            for i in 0..n {
+                let c = d.cdf(i + 1);
+                for u in [c.next_down(), c.next_down().next_down(), d.cdf(i)] {
+                    if !(0.0..1.0).contains(&u) {
+                        continue;
+                    }
+                    let (x, p, cell) = d.sample_continuous(u);
+                    assert_eq!(
+                        ((x * n as f32) as usize).min(n - 1),
+                        cell,
+                        "n {n} u {u} x {x}"
+                    );
+                    assert_eq!(p, d.density(x), "n {n} u {u} x {x}");
+                }
             }
         }
     }
