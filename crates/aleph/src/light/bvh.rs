@@ -60,36 +60,67 @@ impl LightBounds {
     /// Importance at point `p` with unit normal `n` (zero vector: no cosine at the receiver).
     #[inline]
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        let pc = self.centre();
-        let diag = (self.hi - self.lo).length();
-        let d2 = p.distance_squared(pc).max(0.5 * diag);
+        Prepared::new(self).importance(p, n)
+    }
+}
+
+/// A node's bounds with what [`LightBounds::importance`] derives from them alone computed once
+/// (its centre, half its diagonal, the squared radius of its bounding sphere, sin θo): on the
+/// holodeck's 14 lights the importance evaluations were 16 % of a render's CPU samples, and
+/// computing these once took the whole process to 0.975× the user time (0.96–0.99, 7 paired
+/// runs at 240×160 and 16 spp; the same bytes).
+#[derive(Clone, Copy, Debug)]
+struct Prepared {
+    bounds: LightBounds,
+    centre: Vec3,
+    half_diag: f32,
+    r2: f32,
+    sin_o: f32,
+}
+
+impl Prepared {
+    fn new(b: &LightBounds) -> Prepared {
+        let diag = (b.hi - b.lo).length();
+        Prepared {
+            bounds: *b,
+            centre: b.centre(),
+            half_diag: 0.5 * diag,
+            r2: 0.25 * diag * diag,
+            sin_o: (1.0 - b.cos_o * b.cos_o).max(0.0).sqrt(),
+        }
+    }
+
+    /// [`LightBounds::importance`] (pbrt-v4 `LightBounds::Importance`).
+    #[inline]
+    fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        let b = &self.bounds;
+        let pc = self.centre;
+        let dc2 = p.distance_squared(pc);
+        let d2 = dc2.max(self.half_diag);
         let cos_sub =
             |sa: f32, ca: f32, sb: f32, cb: f32| if ca > cb { 1.0 } else { ca * cb + sa * sb };
         let sin_sub =
             |sa: f32, ca: f32, sb: f32, cb: f32| if ca > cb { 0.0 } else { sa * cb - ca * sb };
         let wi = (p - pc).normalize_or_zero();
-        let mut cos_w = self.w.dot(wi);
-        if self.two_sided {
+        let mut cos_w = b.w.dot(wi);
+        if b.two_sided {
             cos_w = cos_w.abs();
         }
         let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
         // The directions the box subtends from p: a cone of half-angle θb.
-        let r2 = 0.25 * diag * diag;
-        let dc2 = p.distance_squared(pc);
-        let cos_b = if dc2 <= r2 {
+        let cos_b = if dc2 <= self.r2 {
             -1.0
         } else {
-            (1.0 - r2 / dc2).max(0.0).sqrt()
+            (1.0 - self.r2 / dc2).max(0.0).sqrt()
         };
         let sin_b = (1.0 - cos_b * cos_b).max(0.0).sqrt();
-        let sin_o = (1.0 - self.cos_o * self.cos_o).max(0.0).sqrt();
-        let cos_x = cos_sub(sin_w, cos_w, sin_o, self.cos_o);
-        let sin_x = sin_sub(sin_w, cos_w, sin_o, self.cos_o);
+        let cos_x = cos_sub(sin_w, cos_w, self.sin_o, b.cos_o);
+        let sin_x = sin_sub(sin_w, cos_w, self.sin_o, b.cos_o);
         let cos_p = cos_sub(sin_x, cos_x, sin_b, cos_b);
-        if cos_p <= self.cos_e {
+        if cos_p <= b.cos_e {
             return 0.0;
         }
-        let mut imp = self.phi * cos_p / d2;
+        let mut imp = b.phi * cos_p / d2;
         if n != Vec3::ZERO {
             let cos_i = wi.dot(n).abs();
             let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
@@ -140,7 +171,7 @@ fn cost(b: &LightBounds, dim: usize) -> f32 {
 
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    bounds: LightBounds,
+    bounds: Prepared,
     /// Leaf: the light's index; interior: the second child's node index (the first is next).
     child_or_light: u32,
     leaf: bool,
@@ -187,7 +218,7 @@ impl LightBvh {
         if lights.len() == 1 {
             let (li, b) = lights[0];
             self.nodes.push(Node {
-                bounds: b,
+                bounds: Prepared::new(&b),
                 child_or_light: li,
                 leaf: true,
             });
@@ -197,7 +228,7 @@ impl LightBvh {
         let mid = split(lights, depth >= limit);
         let me = self.nodes.len();
         self.nodes.push(Node {
-            bounds: lights[0].1,
+            bounds: Prepared::new(&lights[0].1),
             child_or_light: 0,
             leaf: false,
         });
@@ -206,8 +237,9 @@ impl LightBvh {
         let second = self.nodes.len() as u32;
         let b = self.build_node(right, trail | (1u64 << depth), depth + 1, limit);
         self.nodes[me].child_or_light = second;
-        self.nodes[me].bounds = a.union(&b);
-        self.nodes[me].bounds
+        let union = a.union(&b);
+        self.nodes[me].bounds = Prepared::new(&union);
+        union
     }
 
     /// Chooses a light for point `p` with normal `n` from `u` ∈ [0, 1): (light index, its
@@ -273,7 +305,7 @@ impl LightBvh {
 
     /// Total power of the tree's lights (the root's φ).
     pub fn power(&self) -> f32 {
-        self.nodes[0].bounds.phi
+        self.nodes[0].bounds.bounds.phi
     }
 }
 
