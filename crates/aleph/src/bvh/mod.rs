@@ -451,16 +451,15 @@ impl<L: Lanes> Tree<L> {
             if slot & LEAF == 0 {
                 let node = &self.nodes[slot as usize];
                 let (mask, t_near) = r.boxes(node, t_max);
-                match mask.count_ones() {
-                    0 => {}
-                    1 => {
-                        slot = node.child.as_ref()[mask.trailing_zeros() as usize];
-                        continue;
-                    }
-                    _ => {
-                        slot = push_ordered(&mut stack, node, mask, t_near);
-                        continue;
-                    }
+                // No, one or several children hit (bit tests: a population count compiles to
+                // a dozen instructions where the CPU's POPCNT is not enabled).
+                if mask != 0 {
+                    slot = if mask & (mask - 1) == 0 {
+                        node.child.as_ref()[mask.trailing_zeros() as usize]
+                    } else {
+                        push_ordered(&mut stack, node, mask, t_near)
+                    };
+                    continue;
                 }
             } else {
                 for pack in self.leaf(slot) {
