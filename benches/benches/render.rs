@@ -1,15 +1,20 @@
-//! Path-tracer throughput on the bundled Cornell box and BVH build times.
+//! Path-tracer throughput on the bundled Cornell box, BVH build times, and ray casting on the
+//! bundled Lost Empire (225k triangles).
 //!
 //! `cargo bench -p aleph-benches --bench render`. Throughput is reported by criterion in
 //! samples per second (elements = camera samples); the rays per sample of this scene are printed
-//! once at the start so rays/s = samples/s × rays/sample.
+//! once at the start so rays/s = samples/s × rays/sample. The ray-casting group reports rays per
+//! second (elements = rays) for the camera, bounce and shadow rays of
+//! [`aleph_benches::ray_sets`] at 320×200, cast on all threads; `benches/peer/vs_embree_rays.py`
+//! casts the same kind of rays through Embree for comparison.
 
 use aleph::geometry::Geometry;
 use aleph::integrator::Strategy;
 use aleph::render::render_uniform;
 use aleph::scene::{Scene, SceneDescription};
-use aleph_benches::{repo, terrain};
+use aleph_benches::{ray_sets, repo, terrain};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use rayon::prelude::*;
 
 fn cornell(res: u32) -> Scene {
     let mut desc = SceneDescription::read(&repo("scenes/cornell-box/scene.toml")).unwrap();
@@ -51,5 +56,37 @@ fn bvh_build(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, path_tracing, bvh_build);
+fn ray_casting(c: &mut Criterion) {
+    let mut desc = SceneDescription::read(&repo("scenes/lost-empire/scene.toml")).unwrap();
+    desc.camera.resolution = [320, 200];
+    let scene = Scene::load_description(desc).unwrap();
+    let geo = &scene.geometry;
+    let (camera, bounce, shadow) = ray_sets(&scene);
+    let mut g = c.benchmark_group("ray_casting_lost_empire");
+    g.sample_size(20);
+    for (name, rays) in [("camera", &camera), ("bounce", &bounce)] {
+        g.throughput(Throughput::Elements(rays.len() as u64));
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                rays.par_iter()
+                    .with_min_len(256)
+                    .filter(|r| geo.intersect(r).is_some())
+                    .count()
+            })
+        });
+    }
+    g.throughput(Throughput::Elements(shadow.len() as u64));
+    g.bench_function("shadow", |b| {
+        b.iter(|| {
+            shadow
+                .par_iter()
+                .with_min_len(256)
+                .filter(|r| geo.unoccluded(r.o, r.d, r.t_max, r.time))
+                .count()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, path_tracing, bvh_build, ray_casting);
 criterion_main!(benches);

@@ -17,10 +17,9 @@
 //! ray aleph's answer (f32: the hit distance, `inf` for a miss; for shadow rays 1 when
 //! unoccluded, 0 when blocked), one set after the other in the order above.
 
-use aleph::geometry::{Ray, offset_origin};
-use aleph::rng::Rng;
+use aleph::geometry::Ray;
 use aleph::scene::{Scene, SceneDescription};
-use glam::{Vec2, Vec3};
+use aleph_benches::ray_sets;
 use rayon::prelude::*;
 use std::io::Write;
 use std::path::PathBuf;
@@ -76,7 +75,7 @@ fn run() -> Result<(), String> {
         desc.camera.resolution = r;
     }
     let scene = Scene::load_description(desc).map_err(|e| e.to_string())?;
-    let (camera, bounce, shadow) = make_rays(&scene);
+    let (camera, bounce, shadow) = ray_sets(&scene);
     let geo = &scene.geometry;
     let closest = |r: &Ray| geo.intersect(r).map_or(f32::INFINITY, |h| h.t);
     let clear = |r: &Ray| geo.unoccluded(r.o, r.d, r.t_max, r.time) as u32 as f32;
@@ -113,69 +112,6 @@ fn run() -> Result<(), String> {
         .and_then(|mut f| f.write_all(&file))
         .and_then(|_| std::fs::rename(&tmp, &a.out))
         .map_err(|e| format!("{}: {e}", a.out.display()))
-}
-
-/// Camera rays through every pixel (jittered), bounce rays from their hits and shadow rays
-/// from the same hits towards an area above the scene.
-fn make_rays(scene: &Scene) -> (Vec<Ray>, Vec<Ray>, Vec<Ray>) {
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    let camera: Vec<Ray> = (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let mut rng = Rng::for_sample(0x5eed, i as u64, 0);
-            scene.camera_ray(0, (i % w, i / w), 0, rng.uniform2(), 0.0)
-        })
-        .collect();
-    let bounds = (0..scene.geometry.tris.len())
-        .flat_map(|i| scene.geometry.tris.positions(i))
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
-    let centre = bounds.0.lerp(bounds.1, 0.5);
-    let top = Vec3::new(centre.x, bounds.1.y + 100.0, centre.z);
-    let (bounce, shadow): (Vec<Option<Ray>>, Vec<Option<Ray>>) = camera
-        .par_iter()
-        .enumerate()
-        .map(|(i, r)| {
-            let Some(hit) = scene.geometry.intersect(r) else {
-                return (None, None);
-            };
-            let mut rng = Rng::for_sample(0x5eed, i as u64, 1);
-            let n = if hit.ng.dot(r.d) < 0.0 {
-                hit.ng
-            } else {
-                -hit.ng
-            };
-            let d = cosine_about(n, rng.uniform2());
-            let o = offset_origin(hit.p, hit.ng, d);
-            let bounce = Ray {
-                o,
-                d,
-                t_max: f32::INFINITY,
-                time: 0.0,
-            };
-            let u = rng.uniform2() - Vec2::splat(0.5);
-            let to = top + Vec3::new(20.0 * u.x, 0.0, 20.0 * u.y) - hit.p;
-            let (dist, dl) = (to.length(), to.normalize());
-            let shadow = Ray {
-                o: offset_origin(hit.p, hit.ng, dl),
-                d: dl,
-                t_max: dist * (1.0 - 1e-4),
-                time: 0.0,
-            };
-            (Some(bounce), Some(shadow))
-        })
-        .unzip();
-    let keep = |v: Vec<Option<Ray>>| v.into_iter().flatten().collect();
-    (camera, keep(bounce), keep(shadow))
-}
-
-/// A cosine-weighted direction about unit `n` for `u` in [0, 1)².
-fn cosine_about(n: Vec3, u: Vec2) -> Vec3 {
-    let (r, phi) = (u.x.sqrt(), std::f32::consts::TAU * u.y);
-    let (t, b) = n.any_orthonormal_pair();
-    let z = (1.0 - u.x).max(0.0).sqrt();
-    (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize()
 }
 
 /// Casts `rays` `rounds` times in parallel: (the answers, the median rays per second).
