@@ -119,7 +119,8 @@ def main():
             same = np.mean(m == ans)
         else:
             both = np.isfinite(m) & np.isfinite(ans)
-            close = np.abs(m - ans) <= 1e-3 * np.maximum(1.0, np.abs(ans))
+            with np.errstate(invalid="ignore"):  # inf - inf where both miss
+                close = np.abs(m - ans) <= 1e-3 * np.maximum(1.0, np.abs(ans))
             same = np.mean(np.where(both, close, np.isfinite(m) == np.isfinite(ans)))
         ra, rm = aleph[name], mits[name]["rate"]
         print(f"| {name} | {len(ans)} | {ra / 1e6:.2f} | {rm / 1e6:.2f} | {ra / rm:.2f}x | {100 * same:.2f} % |")
