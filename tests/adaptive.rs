@@ -691,6 +691,77 @@ fn the_default_stop_lifts_every_noisy_pixel_to_a_quarter_of_its_mean() {
 }
 
 #[test]
+fn a_converged_stop_spends_its_last_pass_on_the_floor_alone() {
+    // Once the converged fraction is reached, the stop's only further pass lifts the pixels
+    // left under its floor (a quarter of the mean spp, rounded down to a stratified total);
+    // the few pixels still above threshold are not doubled again, nor their neighbours. Each
+    // pass's film is recorded through the preview's hook and each judgement's converged
+    // fraction through the progress reports; at 64 × 48 the box converges with pixels under
+    // the floor, so the last pass follows a converged judgement.
+    use aleph::adaptive::{PassReport, Refinement, render_adaptive_refining};
+    use std::sync::Mutex;
+    let scene = cornell_box(64, 48);
+    let s = AdaptiveSettings::default();
+    let films: Mutex<Vec<Vec<u32>>> = Mutex::new(Vec::new());
+    let reports: Mutex<Vec<f64>> = Mutex::new(Vec::new());
+    let r = render_adaptive_refining(
+        &scene,
+        &s,
+        &|p: &PassReport| reports.lock().unwrap().push(p.converged_fraction),
+        &|_| {},
+        &|f: &Refinement| films.lock().unwrap().push(f.film.spp()),
+    )
+    .unwrap();
+    assert_eq!(r.stop, aleph::adaptive::StopReason::Converged);
+    let (films, reports) = (films.into_inner().unwrap(), reports.into_inner().unwrap());
+    assert!(films.len() >= 3, "{} passes", films.len());
+    let (before, after) = (&films[films.len() - 2], &films[films.len() - 1]);
+    // The judgement between the last two passes.
+    let judged = reports[reports.len() - 2];
+    assert!(
+        judged >= s.converged_fraction,
+        "the last pass followed a judgement at {judged:.4}: not a floor lift (nothing tested)"
+    );
+    let mean = before.iter().map(|&n| n as f64).sum::<f64>() / before.len() as f64;
+    let floor = (0..20)
+        .flat_map(|k| [1u32 << k, 3u32 << k >> 2])
+        .filter(|&t| t as f64 <= mean / 4.0)
+        .max()
+        .unwrap();
+    let mut lifted = 0;
+    for (i, (&b, &a)) in before.iter().zip(after).enumerate() {
+        if a != b {
+            assert!(
+                b < floor && a == floor,
+                "pixel {i}: {b} -> {a} spp in the last pass (floor {floor}, mean {mean:.1})"
+            );
+            lifted += 1;
+        }
+    }
+    assert!(lifted > 0, "the last pass gave no pixel samples");
+}
+
+#[test]
+fn a_budget_does_not_depend_on_the_stops_converged_fraction() {
+    // The even fill of a budget starts at its own converged fraction (99.5 %), so the stop's
+    // `converged_fraction` leaves a budgeted render bit for bit as it is.
+    let scene = cornell_box(40, 32);
+    let at = |f: f64| {
+        let s = AdaptiveSettings {
+            budget_spp: Some(128.0),
+            converged_fraction: f,
+            ..AdaptiveSettings::default()
+        };
+        render_adaptive(&scene, &s, &|_| {}, &|_| {}).unwrap()
+    };
+    let (a, b) = (at(0.5), at(0.995));
+    let (sa, sb) = (a.film.spp(), b.film.spp());
+    let differ = sa.iter().zip(&sb).filter(|(x, y)| x != y).count();
+    assert_eq!(differ, 0, "{differ} pixels' counts differ");
+    assert!(a.film.mean_rgb() == b.film.mean_rgb(), "the images differ");
+}
+
+#[test]
 fn a_budget_leaves_the_directly_seen_sky_to_the_lit_wall() {
     // A diffuse wall under the bundled Venice sunset, filling the lower half of a view that
     // looks 30° up, the smooth evening sky (15° to 30° up) the upper half. The sky seen

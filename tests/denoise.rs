@@ -517,7 +517,7 @@ mod preview {
         // busier machine only sooner.
         let mut job = job();
         job.budget.time_s = Some(1.0);
-        job.sampling.converged_fraction = 1.0;
+        job.sampling.converged_fraction = Some(1.0);
         let (rows, stop) = preview(job);
         assert_eq!(stop, StopReason::Time, "{rows:?}");
     }

@@ -128,14 +128,11 @@ pub struct SamplingArgs {
         help_heading = "Adaptive sampling"
     )]
     pub visibility: VisibilityArg,
-    /// Fraction of pixels below threshold that counts as converged.
-    #[arg(
-        long,
-        value_name = "F",
-        default_value_t = 0.995,
-        help_heading = "Adaptive sampling"
-    )]
-    pub converged: f64,
+    /// Fraction of pixels below threshold at which a render without --spp stops (default: 0.9
+    /// for the perceptual sampler on a still, 0.995 with --denoise, for a sequence's frames and
+    /// for the variance sampler). A budget's even fill does not depend on it.
+    #[arg(long, value_name = "F", help_heading = "Adaptive sampling")]
+    pub converged: Option<f64>,
     /// Noise threshold of the variance sampler (Cycles' default 0.01).
     #[arg(
         long,

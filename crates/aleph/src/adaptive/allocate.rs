@@ -184,7 +184,14 @@ fn pass_cap(noise: Option<&[f32]>, i: usize, n: u32, max_spp: u32) -> u32 {
 /// [`NEGLIGIBLE_NOISE_CONTRAST`]: super::criterion::NEGLIGIBLE_NOISE_CONTRAST
 pub(crate) const NEAR_NEGLIGIBLE_FACTOR: f32 = 8.0;
 
-/// Under a sample budget, once the threshold calls the converged fraction of pixels invisible:
+/// The fraction of pixels below threshold from which a budget's rest is spread evenly
+/// ([`fill_to_level`]); measured at this value (docs/benchmarks.md, the 3/4 steps and the even
+/// fill). The stop without a budget has its own fraction
+/// ([`super::AdaptiveSettings::converged_fraction`]).
+pub(crate) const FILL_FROM_CONVERGED: f64 = 0.995;
+
+/// Under a sample budget, once [`FILL_FROM_CONVERGED`] of the pixels are invisible to the
+/// threshold:
 /// every pixel with any noise (ratio > 0) in `region` is raised to one common level, the
 /// largest [`stratified_total`] the samples left after `alloc`'s own (`remaining` in all)
 /// afford; when not even the next level above the lowest count is affordable, to that level,

@@ -293,7 +293,7 @@ impl Frame {
                 };
                 return Ok((judgement, reason, judge));
             }
-            let done = converged >= s.converged_fraction;
+            let done = converged >= super::converged_target(s, remaining);
             let alloc = next_pass(st, &ratio, remaining, done, cap);
             if alloc.total() == 0 {
                 let reason = if done {
