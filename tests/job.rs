@@ -33,6 +33,39 @@ impl Observer for Frames {
 }
 
 #[test]
+fn the_stops_converged_fraction_defaults_by_rule_denoiser_and_sequence() {
+    // A still's perceptual stop ends at 90 % of the pixels; the denoised stop, a sequence's
+    // frames and Cycles' rule keep 99.5 %, where the lower fraction was not measured to pay;
+    // a fraction the job names is used as it is everywhere.
+    // (The denoised case needs a `--features denoise` build, whose CI step runs this test.)
+    use aleph::adaptive::{Criterion, DEFAULT_CONVERGED_FRACTION};
+    let fraction = |job: &RenderJob| {
+        let scene = job.load_scene().unwrap();
+        job.settings(&scene, None).unwrap().0.converged_fraction
+    };
+    let still = small("scenes/cornell-box/scene.toml");
+    let mut denoised = still.clone();
+    denoised.output.denoise = true;
+    let mut variance = still.clone();
+    variance.criterion = Criterion::Variance;
+    let sequence = small("scenes/cornell-motion/scene.toml");
+    assert_eq!(DEFAULT_CONVERGED_FRACTION, 0.9);
+    assert_eq!(fraction(&still), 0.9);
+    if aleph::denoise::AVAILABLE {
+        assert_eq!(fraction(&denoised), job::KEPT_CONVERGED_FRACTION);
+    }
+    assert_eq!(fraction(&variance), 0.995);
+    assert_eq!(fraction(&sequence), job::KEPT_CONVERGED_FRACTION);
+    let named = [still, variance, sequence]
+        .into_iter()
+        .chain(aleph::denoise::AVAILABLE.then_some(denoised));
+    for mut j in named {
+        j.sampling.converged_fraction = Some(0.7);
+        assert_eq!(fraction(&j), 0.7);
+    }
+}
+
+#[test]
 fn a_sequence_renders_through_the_library() {
     let dir = tempdir();
     let mut job = RenderJob::new(repo("scenes/cornell-motion/scene.toml"));

@@ -117,6 +117,7 @@ impl Criterion {
             Criterion::Variance => "variance",
         }
     }
+
     /// The default of [`AdaptiveSettings::converged_fraction`] for this rule: the perceptual
     /// stop's [`DEFAULT_CONVERGED_FRACTION`]; Cycles' rule stops, as in Cycles, once (almost)
     /// every pixel is under its noise threshold, [`VARIANCE_CONVERGED_FRACTION`].
