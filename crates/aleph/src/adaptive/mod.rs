@@ -1036,10 +1036,10 @@ fn adaptive_loop(
         let converged = st.report(&ratio, progress);
         let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
         let floor = pixel_floor(s, &st);
-        // A converged stop first lifts the pixels left under the floor.
-        let lifts = |f| floor_lifts(&st, &ratio, noise.as_deref(), f, cap);
+        // A converged stop first lifts the pixels left under the floor: its pass is planned
+        // (the lifts alone) and it ends below when there are none.
         if let Some(reason) = stop_before_pass(s, &st, converged, remaining, start)
-            && (reason != StopReason::Converged || !floor.is_some_and(lifts))
+            && reason != StopReason::Converged
         {
             break (judgement, reason);
         }
@@ -1122,15 +1122,6 @@ fn affordable_samples(
         samples = affordable(cost.refresh);
     }
     ((samples as f64) >= 0.002 * n_px).then_some(samples)
-}
-
-/// Whether raising the pixels under `floor` samples ([`allocate::raise_to_floor`]) would give
-/// any pixel of the region samples.
-fn floor_lifts(st: &LoopState, ratio: &[f32], noise: Option<&[f32]>, floor: u32, cap: u32) -> bool {
-    let mut lift = Allocation::empty(st.film.len());
-    allocate::raise_to_floor(&mut lift, &st.film, ratio, noise, floor, cap);
-    st.clip(&mut lift);
-    lift.total() > 0
 }
 
 /// The converged fraction that ends the loop's steering: without a budget (`remaining` is

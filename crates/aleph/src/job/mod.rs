@@ -711,10 +711,7 @@ impl RenderJob {
         )?;
         tone.adaptation_state = adaptation;
         let mut settings = self.adaptive_settings(scene.settings.spp, tone)?;
-        if self.sampling.converged_fraction.is_none() {
-            settings.converged_fraction =
-                self.default_converged_fraction(scene.animation.is_some());
-        }
+        settings.converged_fraction = self.converged_fraction(scene.animation.is_some());
         let pixels = scene.camera.width as usize * scene.camera.height as usize;
         settings.reuse_frame_memory =
             crate::reuse::frame_memory(self.reuse_window_for(pixels), self.reuse_memory());
@@ -725,14 +722,14 @@ impl RenderJob {
         Ok((settings, look))
     }
 
-    /// The stop's converged fraction when the job names none: the rule's own
+    /// The stop's converged fraction: the job's, or when it names none the rule's own
     /// ([`Criterion::default_converged_fraction`]) for a still, [`KEPT_CONVERGED_FRACTION`]
     /// with the denoiser or for a frame of a `sequence`.
-    fn default_converged_fraction(&self, sequence: bool) -> f64 {
-        if self.denoises() || sequence {
-            KEPT_CONVERGED_FRACTION
-        } else {
-            self.criterion.default_converged_fraction()
+    fn converged_fraction(&self, sequence: bool) -> f64 {
+        match self.sampling.converged_fraction {
+            Some(f) => f,
+            None if self.denoises() || sequence => KEPT_CONVERGED_FRACTION,
+            None => self.criterion.default_converged_fraction(),
         }
     }
 
@@ -768,9 +765,7 @@ impl RenderJob {
             budget_spp: self.budget.spp,
             uniform_spp,
             time_budget: self.budget.time_s.map(Duration::from_secs_f64),
-            converged_fraction: s
-                .converged_fraction
-                .unwrap_or(self.default_converged_fraction(false)),
+            converged_fraction: self.converged_fraction(false),
             tone,
             perceptual: PerceptualSettings {
                 visibility: s.visibility,
