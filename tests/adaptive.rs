@@ -656,8 +656,8 @@ fn a_budget_lifts_every_noisy_pixel_to_three_quarters_of_it() {
 }
 
 #[test]
-fn the_default_stop_lifts_every_noisy_pixel_to_a_quarter_of_its_mean() {
-    // Without a budget the stop keeps a floor of a quarter of the mean spp (rounded down to a
+fn the_default_stop_lifts_every_noisy_pixel_to_half_its_mean() {
+    // Without a budget the stop keeps a floor of half the mean spp (rounded down to a
     // power of two or three quarters of one): a pixel the model calls converged early, but whose
     // noise the judges see (the holodeck's saturated door), is not left at the first pass's
     // count. Only pixels with no noise at all (the light, the black frame) stay under it.
@@ -666,10 +666,10 @@ fn the_default_stop_lifts_every_noisy_pixel_to_a_quarter_of_its_mean() {
     let scene = cornell_box(64, 48);
     let r = render_adaptive(&scene, &AdaptiveSettings::default(), &|_| {}, &|_| {}).unwrap();
     assert_eq!(r.stop, aleph::adaptive::StopReason::Converged);
-    let quarter = r.mean_spp() / 4.0;
+    let half = r.mean_spp() / 2.0;
     let floor = (0..20)
         .flat_map(|k| [1u32 << k, 3u32 << k >> 2])
-        .filter(|&t| t >= 1 && t as f64 <= quarter)
+        .filter(|&t| t >= 1 && t as f64 <= half)
         .max()
         .unwrap();
     let mut lifted = 0;
@@ -693,7 +693,7 @@ fn the_default_stop_lifts_every_noisy_pixel_to_a_quarter_of_its_mean() {
 #[test]
 fn a_converged_stop_spends_its_last_pass_on_the_floor_alone() {
     // Once the converged fraction is reached, the stop's only further pass lifts the pixels
-    // left under its floor (a quarter of the mean spp, rounded down to a stratified total);
+    // left under its floor (half the mean spp, rounded down to a stratified total);
     // the few pixels still above threshold are not doubled again, nor their neighbours. Each
     // pass's film is recorded through the preview's hook and each judgement's converged
     // fraction through the progress reports; at 64 × 48 the box converges with pixels under
@@ -725,7 +725,7 @@ fn a_converged_stop_spends_its_last_pass_on_the_floor_alone() {
     let mean = before.iter().map(|&n| n as f64).sum::<f64>() / before.len() as f64;
     let floor = (0..20)
         .flat_map(|k| [1u32 << k, 3u32 << k >> 2])
-        .filter(|&t| t as f64 <= mean / 4.0)
+        .filter(|&t| t as f64 <= mean / 2.0)
         .max()
         .unwrap();
     let mut lifted = 0;

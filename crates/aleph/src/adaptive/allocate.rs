@@ -114,7 +114,22 @@ pub(crate) const FLOOR_SHARE: f64 = 0.75;
 /// of the latitude and the luminance-only threshold does not see the noise's hue: graded 2
 /// stops darker, its FLIP p99 (0.105) and JOD (9.906) were worse than uniform's at 128 spp.
 /// With the floor: 0.047 and 9.987, for 719.5 spp mean against 694.4.
-pub(crate) const STOP_FLOOR_SHARE: f64 = 0.25;
+///
+/// Half the mean since 2026-11-28 (a quarter before): once the stop ended at 90 % of the
+/// pixels, the pixels it starved cost its FLIP mean more than the fed ones returned (FLIP's
+/// mean falls about as n^−⅓ where the model ranks them). Uniform spp at the stop's score over
+/// the stop's, as displayed / −2 / +2 EV, a quarter → half (seeds 0 and 1, the holodeck 0;
+/// 4096-spp references; docs/benchmarks.md): holodeck 240×160 (558.0 → 597.4 spp) FLIP mean
+/// 0.84 / 0.76 / 0.79 → 0.97 / 0.89 / 0.93×, p99 2.31 / 1.76 / 2.02 → 2.30 / 1.87 / 2.05×, JOD
+/// 2.70 / 2.82 / 1.29 → 2.92 / 2.78 / 1.62×; Cornell box 256² (186.4 → 189.4) FLIP mean 0.98 /
+/// 0.71 / 0.94 → 1.01 / 0.76 / 0.97×, p99 0.97 / 0.81 / 1.58 → 1.02 / 0.89 / 1.61×, JOD 1.31 /
+/// 0.83 / 2.18 → 1.35 / 0.89 / 2.15×; Mori knob 256×170 (35.0 → 36.2) FLIP mean 0.92 / 1.05 /
+/// 0.99 → 0.93 / 1.03 / 1.00×, p99 1.26 / 1.34 / 1.31 → 1.24 / 1.29 / 1.28×, JOD 1.25 / 1.23 /
+/// 1.49 → 1.23 / 1.20 / 1.46×; Lost Empire 256×160 (44.5 → 47.1) FLIP mean 1.00 / 0.95 / 1.06
+/// → 0.96 / 1.00 / 1.05×, p99 1.08 / 1.10 / 1.02 → 1.04 / 1.05 / 0.98×, JOD at ∓2 EV 1.41 /
+/// 1.30 → 1.33 / 1.25×. Three quarters gained more FLIP mean on the holodeck and the box but
+/// lost JOD on the Mori knob (1.13 / 1.15 / 1.26×) and the box graded brighter (1.95×).
+pub(crate) const STOP_FLOOR_SHARE: f64 = 0.5;
 
 /// Under a sample budget B no pixel gets more than BUDGET_CAP_SHARE · B samples (rounded down
 /// to a [`stratified_total`]; the unbudgeted stop keeps only `max_spp`). Without it a few
