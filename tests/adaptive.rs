@@ -655,6 +655,16 @@ fn a_budget_lifts_every_noisy_pixel_to_three_quarters_of_it() {
     assert!((r.mean_spp() - 128.0).abs() < 0.5, "{}", r.mean_spp());
 }
 
+/// The stop's floor at a mean of `mean` spp: the largest power of two, or three quarters of
+/// one, not above half of it.
+fn stop_floor(mean: f64) -> u32 {
+    (0..20)
+        .flat_map(|k| [1u32 << k, 3u32 << k >> 2])
+        .filter(|&t| t >= 1 && t as f64 <= mean / 2.0)
+        .max()
+        .unwrap()
+}
+
 #[test]
 fn the_default_stop_lifts_every_noisy_pixel_to_half_its_mean() {
     // Without a budget the stop keeps a floor of half the mean spp (rounded down to a
@@ -666,12 +676,7 @@ fn the_default_stop_lifts_every_noisy_pixel_to_half_its_mean() {
     let scene = cornell_box(64, 48);
     let r = render_adaptive(&scene, &AdaptiveSettings::default(), &|_| {}, &|_| {}).unwrap();
     assert_eq!(r.stop, aleph::adaptive::StopReason::Converged);
-    let half = r.mean_spp() / 2.0;
-    let floor = (0..20)
-        .flat_map(|k| [1u32 << k, 3u32 << k >> 2])
-        .filter(|&t| t >= 1 && t as f64 <= half)
-        .max()
-        .unwrap();
+    let floor = stop_floor(r.mean_spp());
     let mut lifted = 0;
     for p in &r.film.pixels {
         if p.n >= floor {
@@ -723,11 +728,7 @@ fn a_converged_stop_spends_its_last_pass_on_the_floor_alone() {
         "the last pass followed a judgement at {judged:.4}: not a floor lift (nothing tested)"
     );
     let mean = before.iter().map(|&n| n as f64).sum::<f64>() / before.len() as f64;
-    let floor = (0..20)
-        .flat_map(|k| [1u32 << k, 3u32 << k >> 2])
-        .filter(|&t| t as f64 <= mean / 2.0)
-        .max()
-        .unwrap();
+    let floor = stop_floor(mean);
     let mut lifted = 0;
     for (i, (&b, &a)) in before.iter().zip(after).enumerate() {
         if a != b {

@@ -1036,11 +1036,9 @@ fn adaptive_loop(
         let converged = st.report(&ratio, progress);
         let remaining = budget_total.map(|b| b.saturating_sub(st.region_samples()));
         let floor = pixel_floor(s, &st);
-        // A converged stop first lifts the pixels left under the floor: its pass is planned
-        // (the lifts alone) and it ends below when there are none.
-        if let Some(reason) = stop_before_pass(s, &st, converged, remaining, start)
-            && reason != StopReason::Converged
-        {
+        // A converged stop is not ended here: its last pass lifts the pixels left under the
+        // floor (planned below), and it ends when there are none.
+        if let Some(reason) = stop_before_pass(s, &st, remaining, start) {
             break (judgement, reason);
         }
         let done = converged >= converged_target(s, remaining);
@@ -1219,13 +1217,11 @@ fn pixel_floor(s: &AdaptiveSettings, st: &LoopState) -> Option<u32> {
     Some(allocate::stratified_floor(target))
 }
 
-/// Why the loop stops before allocating another pass, if it does: the time budget, the sample
-/// budget, or convergence without a budget (with one, the rest of the budget is spread evenly:
-/// [`allocate::fill_to_level`]).
+/// Why the loop stops before allocating another pass, if it does: the time budget or the
+/// sample budget. Convergence ends the loop once the pass it plans is empty ([`plan_pass`]).
 fn stop_before_pass(
     s: &AdaptiveSettings,
     st: &LoopState,
-    converged: f64,
     remaining: Option<u64>,
     start: Instant,
 ) -> Option<StopReason> {
@@ -1235,9 +1231,6 @@ fn stop_before_pass(
     let n_px = st.region.len() as f64;
     if remaining.is_some_and(|r| r == 0 || (r as f64) < 0.002 * n_px) {
         return Some(StopReason::Budget);
-    }
-    if converged >= s.converged_fraction && remaining.is_none() {
-        return Some(StopReason::Converged);
     }
     None
 }

@@ -710,8 +710,8 @@ impl RenderJob {
             scene.settings.luminance_scale,
         )?;
         tone.adaptation_state = adaptation;
-        let mut settings = self.adaptive_settings(scene.settings.spp, tone)?;
-        settings.converged_fraction = self.converged_fraction(scene.animation.is_some());
+        let sequence = scene.animation.is_some();
+        let mut settings = self.adaptive_settings_for(scene.settings.spp, tone, sequence)?;
         let pixels = scene.camera.width as usize * scene.camera.height as usize;
         settings.reuse_frame_memory =
             crate::reuse::frame_memory(self.reuse_window_for(pixels), self.reuse_memory());
@@ -743,6 +743,17 @@ impl RenderJob {
         uniform_spp: u32,
         tone: ToneMapSettings,
     ) -> Result<AdaptiveSettings, JobError> {
+        self.adaptive_settings_for(uniform_spp, tone, false)
+    }
+
+    /// As [`RenderJob::adaptive_settings`], for a frame of a sequence when `sequence` (its
+    /// stop's converged fraction, [`RenderJob::converged_fraction`]).
+    fn adaptive_settings_for(
+        &self,
+        uniform_spp: u32,
+        tone: ToneMapSettings,
+        sequence: bool,
+    ) -> Result<AdaptiveSettings, JobError> {
         self.validate()?;
         let s = &self.sampling;
         let mut tone = tone;
@@ -765,7 +776,7 @@ impl RenderJob {
             budget_spp: self.budget.spp,
             uniform_spp,
             time_budget: self.budget.time_s.map(Duration::from_secs_f64),
-            converged_fraction: self.converged_fraction(false),
+            converged_fraction: self.converged_fraction(sequence),
             tone,
             perceptual: PerceptualSettings {
                 visibility: s.visibility,
