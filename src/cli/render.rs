@@ -128,7 +128,7 @@ pub struct SamplingArgs {
         help_heading = "Adaptive sampling"
     )]
     pub visibility: VisibilityArg,
-    /// Fraction of pixels below threshold at which a render without --spp stops (default: 0.9
+    /// Fraction of pixels below threshold at which a render without --spp stops (default: 0.8
     /// for the perceptual sampler on a still, 0.995 with --denoise, for a sequence's frames and
     /// for the variance sampler). A budget's even fill does not depend on it.
     #[arg(long, value_name = "F", help_heading = "Adaptive sampling")]

@@ -110,7 +110,7 @@ pub struct SamplingOptions {
     /// ([`DENOISED_STEER_FROM_SPP`]).
     pub steer_from_spp: Option<f64>,
     /// Fraction of pixels below threshold at which a render without a budget stops; `None`
-    /// (the default): the rule's own ([`Criterion::default_converged_fraction`]: 0.9 for the
+    /// (the default): the rule's own ([`Criterion::default_converged_fraction`]: 0.8 for the
     /// perceptual rule, 0.995 for the variance rule).
     pub converged_fraction: Option<f64>,
     /// Where visibility is judged (default: display).
