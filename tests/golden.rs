@@ -107,8 +107,8 @@
 //!
 //! The Cornell box's `converged` case was re-recorded when the default stop came to end at
 //! 80 % of the pixels below threshold instead of 90 % (`DEFAULT_CONVERGED_FRACTION`,
-//! 2026-11-28); the other stills' `converged` cases end at their `--max-spp 32` either way, and
-//! every other case kept its pixels.
+//! 2026-11-28); every other case, the other stills' `converged` ones included, kept its
+//! pixels.
 //!
 //! Layers added since are not hashed, so that the table keeps guarding the pixels it guarded:
 //! the G-buffer (`Depth.Z`, `Normal.X/Y/Z`, `IndexOB`) and `History.spp` of reuse across
