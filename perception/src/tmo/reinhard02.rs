@@ -89,17 +89,46 @@ pub fn white_luminance(lum: &[f32], width: usize) -> f32 {
             v.min(WHITE_NEIGHBOUR_RATIO * near)
         }
     };
-    let mut capped: Vec<f32> = (0..lum.len())
-        .into_par_iter()
-        .map(|i| capped_at(i % width, i / width))
-        .collect();
-    let n = capped.len();
+    let n = lum.len();
     let k = WHITE_RANK
         .min(n / 16)
         .max((n as f64 * WHITE_FRACTION).ceil() as usize)
         .clamp(1, n);
-    let (_, kth, _) = capped.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a));
-    *kth
+    // The k largest of each row's capped values, kept per task and merged: no buffer of the
+    // whole image.
+    let mut top = (0..height)
+        .into_par_iter()
+        .fold(Vec::new, |mut acc: Vec<f32>, y| {
+            // Values at or below the least of k already held cannot raise the k-th largest
+            // (a capped value is at most the pixel's own).
+            let floor = if acc.len() >= k {
+                acc.iter().copied().fold(f32::INFINITY, f32::min)
+            } else {
+                -1.0
+            };
+            acc.extend(
+                (0..width.min(n - y * width))
+                    .filter(|&x| at(x, y) > floor)
+                    .map(|x| capped_at(x, y)),
+            );
+            keep_largest(&mut acc, k, 4 * k);
+            acc
+        })
+        .reduce(Vec::new, |mut a, b| {
+            a.extend(b);
+            keep_largest(&mut a, k, 4 * k);
+            a
+        });
+    keep_largest(&mut top, k, k);
+    top.iter().copied().fold(f32::INFINITY, f32::min)
+}
+
+/// Cuts `v` to its `k` largest values (in any order) once it holds more than `limit`.
+fn keep_largest(v: &mut Vec<f32>, k: usize, limit: usize) {
+    if v.len() > limit {
+        v.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a));
+        v.truncate(k);
+    }
 }
 
 impl Default for Reinhard02 {
