@@ -18,7 +18,7 @@ use rayon::prelude::*;
 /// brightest is the upper tail of its noise: on the Mori knob under a sunset map (256×192) that
 /// pixel put L_white 1.02–1.75× the converged image's from one uniform render to the next at
 /// 32–128 spp, and the displayed images differed from the reference's by FLIP mean 0.04–0.38
-/// where their noise alone scores about 0.02. So L_white is the [`WHITE_RANK`]-th largest capped
+/// where their noise alone scores 0.02–0.04. So L_white is the [`WHITE_RANK`]-th largest capped
 /// luminance ([`white_luminance`]; on images over 90,000 pixels the one exceeded by
 /// [`WHITE_FRACTION`] of them): the white of a patch of at least 3 × 3 pixels' worth. On that
 /// scene the same renders' whites then lie within 0.4 % of each other and at 1.002× the
