@@ -2,7 +2,7 @@
 
 use crate::util::*;
 use aleph::output::{AtomicOutputs, write_exr};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn aleph(args: &[&str]) -> Output {
@@ -10,6 +10,27 @@ fn aleph(args: &[&str]) -> Output {
         .args(args)
         .output()
         .unwrap()
+}
+
+/// Renders `scene` uniformly (`--resolution`, `--spp`, `--seed` as given) to `stem`; returns
+/// the EXR's path.
+fn render_uniform(scene: &Path, stem: &Path, resolution: &str, spp: &str, seed: &str) -> PathBuf {
+    let o = aleph(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--resolution",
+        resolution,
+        "--sampler",
+        "uniform",
+        "--spp",
+        spp,
+        "--seed",
+        seed,
+        "-o",
+        stem.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    stem.with_extension("exr")
 }
 
 fn read_display_exr(path: &Path) -> Vec<f32> {
@@ -172,25 +193,8 @@ fn render_applies_the_tone_operator_to_the_png_only() {
 fn tonemap_reproduces_the_render_and_grades_under_a_frozen_curve() {
     let d = tempdir();
     let scene = repo("scenes/cornell-box/scene.toml");
-    let render = |stem: &str, seed: &str| {
-        let s = d.path().join(stem);
-        let o = aleph(&[
-            "render",
-            scene.to_str().unwrap(),
-            "--resolution",
-            "24x24",
-            "--sampler",
-            "uniform",
-            "--spp",
-            "8",
-            "--seed",
-            seed,
-            "-o",
-            s.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        d.path().join(format!("{stem}.exr"))
-    };
+    let render =
+        |stem: &str, seed: &str| render_uniform(&scene, &d.path().join(stem), "24x24", "8", seed);
     let (a, r) = (render("a", "1"), render("r", "2"));
     let p = |name: &str| d.path().join(name);
     let tm = |args: &[&str]| {
@@ -303,23 +307,8 @@ fn reinhards_white_holds_still_across_renders_of_a_glint() {
     let (mut whites, mut brightest) = (Vec::new(), Vec::new());
     for seed in 0..4 {
         let stem = d.path().join(format!("s{seed}"));
-        let seed = seed.to_string();
-        let o = aleph(&[
-            "render",
-            scene.to_str().unwrap(),
-            "--sampler",
-            "uniform",
-            "--spp",
-            "32",
-            "--resolution",
-            "128x96",
-            "--seed",
-            &seed,
-            "-o",
-            stem.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let img = aleph::imageio::read_image(&stem.with_extension("exr")).unwrap();
+        let exr = render_uniform(&scene, &stem, "128x96", "32", &seed.to_string());
+        let img = aleph::imageio::read_image(&exr).unwrap();
         let lum: Vec<f32> = img
             .rgb
             .chunks_exact(3)
