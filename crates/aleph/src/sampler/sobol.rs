@@ -77,8 +77,9 @@ use glam::Vec2;
 /// PCG32.
 pub const QMC_DIMENSIONS: u32 = 10;
 
-/// The dimension pair drawn from an extensible rank-1 lattice instead of a Sobol' net
-/// ([`shuffled_shifted_lattice2d`]): the first vertex's BSDF sample, dimensions 6 and 7 in the
+/// The dimension pair that one sequence per pixel ([`SobolSampler::for_sample_whole`]: the
+/// perceptual sampler, uniform renders without CMJ) draws from an extensible rank-1 lattice
+/// instead of a Sobol' net ([`shuffled_shifted_lattice2d`]): the first vertex's BSDF sample, dimensions 6 and 7 in the
 /// integrator's order (the camera's 0–1, then the vertex's light choice 2, light sample 3–4,
 /// BSDF choice 5 and BSDF sample 6–7). Where a glossy lobe, or the edge of what the sampled
 /// directions see, makes that integrand discontinuous, the lattice's evenly spaced points beat
@@ -235,6 +236,10 @@ pub struct SobolSampler {
     index: u32,
     /// The dimension counter, and the PCG32 stream past [`QMC_DIMENSIONS`].
     dims: Padded,
+    /// Whether [`LATTICE_PAIR`] comes from the lattice: for one sequence per pixel; the two
+    /// independent half-buffer streams (the variance sampler, the denoised error, reuse across
+    /// frames), whose lattice was not measured, keep the net.
+    lattice: bool,
 }
 
 impl SobolSampler {
@@ -260,13 +265,16 @@ impl SobolSampler {
     pub fn for_sample_whole(seed: u64, pixel_index: u64, sample_index: u64) -> Self {
         let stream = mix64(seed ^ mix64(pixel_index.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ 2));
         let swap = mix64(stream ^ (sample_index >> 1)) & 1;
-        SobolSampler::new(
-            stream,
-            (sample_index ^ swap) as u32,
-            seed,
-            pixel_index,
-            sample_index,
-        )
+        SobolSampler {
+            lattice: true,
+            ..SobolSampler::new(
+                stream,
+                (sample_index ^ swap) as u32,
+                seed,
+                pixel_index,
+                sample_index,
+            )
+        }
     }
 
     #[inline]
@@ -278,6 +286,7 @@ impl SobolSampler {
                 QMC_DIMENSIONS,
                 (seed ^ 0x243F_6A88_85A3_08D3, pixel_index, sample_index),
             ),
+            lattice: false,
         }
     }
 }
@@ -301,7 +310,7 @@ impl PaddedPattern for SobolSampler {
 
     #[inline]
     fn point(&self, d: u32) -> Vec2 {
-        if d == LATTICE_PAIR {
+        if d == LATTICE_PAIR && self.lattice {
             shuffled_shifted_lattice2d(self.index, dim_seed(self.stream, d))
         } else {
             shuffled_scrambled_sobol2d(self.index, dim_seed(self.stream, d))
