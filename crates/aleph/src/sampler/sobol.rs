@@ -7,6 +7,10 @@
 //! index shuffled rather than Morton-ordered, so samples can be added to any pixel at any time
 //! and every power-of-two prefix of a pixel's samples stays stratified).
 //!
+//! One pair is the exception: where a pixel's samples are one sequence, the first vertex's BSDF
+//! sample comes from an extensible rank-1 lattice, whose evenly spaced points beat the net's on
+//! that integrand's edges ([`LATTICE_PAIR`]); every power-of-two prefix is still stratified.
+//!
 //! **Layouts of a pixel's samples** ([`super::SampleStreams`]). With independent half-buffers
 //! (the variance sampler, the denoised error, reuse across frames) the even and odd samples of
 //! a pixel (half-buffers A and B of the film) are two separate sequences with independent
@@ -78,10 +82,10 @@ use glam::Vec2;
 pub const QMC_DIMENSIONS: u32 = 10;
 
 /// The dimension pair that one sequence per pixel ([`SobolSampler::for_sample_whole`]: the
-/// perceptual sampler, uniform renders without CMJ) draws from an extensible rank-1 lattice
-/// instead of a Sobol' net ([`shuffled_shifted_lattice2d`]): the first vertex's BSDF sample, dimensions 6 and 7 in the
-/// integrator's order (the camera's 0–1, then the vertex's light choice 2, light sample 3–4,
-/// BSDF choice 5 and BSDF sample 6–7). Where a glossy lobe, or the edge of what the sampled
+/// perceptual sampler, and renders that draw no CMJ pattern) takes from an extensible rank-1
+/// lattice instead of a Sobol' net ([`shuffled_shifted_lattice2d`]): the first vertex's BSDF
+/// sample, dimensions 6 and 7 in the integrator's order (the camera's 0–1, then the vertex's
+/// light choice 2, light sample 3–4, BSDF choice 5 and BSDF sample 6–7). Where a glossy lobe, or the edge of what the sampled
 /// directions see, makes that integrand discontinuous, the lattice's evenly spaced points beat
 /// the net's. Measured with uniform renders drawing this sampler (a scratch switch; seeds 0–2,
 /// mean squared error against 4096-spp references, relative to uniform CMJ renders, at 16 / 48
