@@ -255,9 +255,8 @@ impl SobolSampler {
         SobolSampler::new(
             stream,
             (sample_index >> 1) as u32,
-            seed,
-            pixel_index,
-            sample_index,
+            (seed, pixel_index, sample_index),
+            false,
         )
     }
 
@@ -269,28 +268,26 @@ impl SobolSampler {
     pub fn for_sample_whole(seed: u64, pixel_index: u64, sample_index: u64) -> Self {
         let stream = mix64(seed ^ mix64(pixel_index.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ 2));
         let swap = mix64(stream ^ (sample_index >> 1)) & 1;
-        SobolSampler {
-            lattice: true,
-            ..SobolSampler::new(
-                stream,
-                (sample_index ^ swap) as u32,
-                seed,
-                pixel_index,
-                sample_index,
-            )
-        }
+        SobolSampler::new(
+            stream,
+            (sample_index ^ swap) as u32,
+            (seed, pixel_index, sample_index),
+            true,
+        )
     }
 
     #[inline]
-    fn new(stream: u64, index: u32, seed: u64, pixel_index: u64, sample_index: u64) -> Self {
+    /// The sampler of point `index` of stream `stream`, its PCG32 tail keyed by (seed, pixel,
+    /// sample), drawing [`LATTICE_PAIR`] from the lattice if `lattice`.
+    fn new(stream: u64, index: u32, (seed, pixel, sample): (u64, u64, u64), lattice: bool) -> Self {
         SobolSampler {
             stream,
             index,
             dims: Padded::new(
                 QMC_DIMENSIONS,
-                (seed ^ 0x243F_6A88_85A3_08D3, pixel_index, sample_index),
+                (seed ^ 0x243F_6A88_85A3_08D3, pixel, sample),
             ),
-            lattice: false,
+            lattice,
         }
     }
 }
