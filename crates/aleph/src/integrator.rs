@@ -116,7 +116,11 @@ pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> (Ve
     let mut weight = Vec3::ONE;
     for _ in 0..8 {
         let Some(hit) = scene.geometry.intersect(&ray) else {
-            let sky = capped(scene.lights.infinite_radiance(ray.d, Vec3::ZERO, |_| 1.0));
+            let sky = capped(scene.lights.infinite_radiance(
+                ray.d,
+                Vec3::ZERO,
+                None::<fn(f32) -> f32>,
+            ));
             return (weight * sky, Vec3::ZERO);
         };
         let facing = if ray.d.dot(hit.ns) > 0.0 {
@@ -257,17 +261,19 @@ impl Integrator {
         if !scene.lights.has_infinite() {
             return Vec3::ZERO;
         }
-        scene.lights.infinite_radiance(d, prev_n, |light_pdf| {
-            if prev_delta {
-                1.0
-            } else {
-                match self.strategy {
-                    Strategy::Mis => power_heuristic(prev_pdf, light_pdf),
-                    Strategy::LightOnly => 0.0,
-                    Strategy::BsdfOnly => 1.0,
-                }
-            }
-        })
+        if prev_delta || self.strategy == Strategy::BsdfOnly {
+            return scene
+                .lights
+                .infinite_radiance(d, prev_n, None::<fn(f32) -> f32>);
+        }
+        if self.strategy == Strategy::LightOnly {
+            return Vec3::ZERO;
+        }
+        scene.lights.infinite_radiance(
+            d,
+            prev_n,
+            Some(|light_pdf| power_heuristic(prev_pdf, light_pdf)),
+        )
     }
 
     /// One light sample at vertex `at` with random numbers (`uc`, `u`), MIS-weighted against

@@ -508,9 +508,10 @@ impl Lights {
     /// Radiance arriving along unit direction `d` from the lights at infinity (a ray that left
     /// the scene after a vertex of shading normal `n`, or zero), each term weighted by
     /// `weight(pdf)`, where pdf is the solid-angle density with which [`Lights::sample`] would
-    /// have chosen that light and direction at that vertex (for MIS).
+    /// have chosen that light and direction at that vertex (for MIS). With `weight` `None`
+    /// every term has weight 1 and no density is computed (the camera's rays, delta bounces).
     #[inline]
-    pub fn infinite_radiance(&self, d: Vec3, n: Vec3, weight: impl Fn(f32) -> f32) -> Vec3 {
+    pub fn infinite_radiance(&self, d: Vec3, n: Vec3, weight: Option<impl Fn(f32) -> f32>) -> Vec3 {
         let mut l = Vec3::ZERO;
         let first = self.n_tris;
         for (k, light) in self.lights[first..first + self.n_infinite]
@@ -518,15 +519,16 @@ impl Lights {
             .enumerate()
         {
             let pmf = || self.choice_pmf(Vec3::ZERO, n, first + k);
-            match light {
-                Light::Environment(env) => {
+            match (light, &weight) {
+                (Light::Environment(env), Some(weight)) => {
                     let (le, pdf) = env.radiance_and_pdf(d, n);
                     if le.max_element() > 0.0 {
                         l += le * weight(pmf() * pdf);
                     }
                 }
-                Light::Sun(sun) if sun.contains(d) => {
-                    l += sun.radiance * weight(pmf() * sun.pdf(d));
+                (Light::Environment(env), None) => l += env.radiance(d),
+                (Light::Sun(sun), weight) if sun.contains(d) => {
+                    l += sun.radiance * weight.as_ref().map_or(1.0, |w| w(pmf() * sun.pdf(d)));
                 }
                 _ => {}
             }
