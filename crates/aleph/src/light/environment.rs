@@ -17,7 +17,7 @@
 //! reconstruction's luminance ĝ, in φ and in cos θ (so no 1/sin θ spike at the poles):
 //! p(ω) = ĝ · width / (2π Σ weights), continuous across texels, and a sample's luminance over
 //! its density is the same everywhere up to the difference between θ and cos θ within one row.
-//! Before 2026-11-29 the density was constant over each texel, so the ramp the lookup makes
+//! Until 2026-11-28 the density was constant over each texel, so the ramp the lookup makes
 //! between a bright texel and its dark neighbours (a softbox's or the sun's edge, a few texels
 //! wide in a 1k map) was left in every light sample's weight. Mitsuba 3's `envmap` also draws
 //! from a bilinear interpolation between texel centres (of luminance × sin θ, through its
@@ -636,7 +636,7 @@ mod tests {
         // The density follows the bilinear lookup within each texel, so a sample's luminance
         // over its density varies only as θ and cos θ part within one row (and, at the poles,
         // where a row's cos θ span is nearly quadratic in θ). A density constant over each
-        // texel (before 2026-11-29) left the ramp between a bright texel and its dim
+        // texel (until 2026-11-28) left the ramp between a bright texel and its dim
         // neighbours in the ratio: a coefficient of variation of 0.47 on this map (0.024 now).
         let (w, h) = (64, 32);
         let env = Environment::from_map(w, h, &random_map(w, h, 9), 1.0, 0.0).unwrap();
