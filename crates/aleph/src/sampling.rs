@@ -369,14 +369,6 @@ impl Distribution2D {
         let (x, pu, _) = self.rows[r].sample_continuous(u.x);
         (Vec2::new(x, v), pv * pu)
     }
-
-    /// The density at (u, v) ∈ [0, 1)².
-    #[inline]
-    pub fn density(&self, p: Vec2) -> f32 {
-        let h = self.rows.len();
-        let r = ((p.y * h as f32) as usize).min(h - 1);
-        self.marginal.density(p.y) * self.rows[r].density(p.x)
-    }
 }
 
 #[cfg(test)]

@@ -22,7 +22,8 @@
 //! wide in a 1k map) was left in every light sample's weight. Mitsuba 3's `envmap` also draws
 //! from a bilinear interpolation between texel centres (of luminance × sin θ, through its
 //! `Hierarchical2D` warp, with a 1/sin θ in its density). Each texel keeps its
-//! luminance beside its radiance, so one bilinear lookup gives both.
+//! luminance beside its radiance, so the density reads the texels the radiance's lookup has
+//! just read.
 
 use crate::math::luminance;
 use crate::sampling::Distribution2D;
@@ -153,8 +154,8 @@ struct Map {
     width: usize,
     height: usize,
     /// Row-major texels, row 0 = zenith: linear RGB radiance (strength applied) in x, y, z and
-    /// its luminance in w, so that one bilinear lookup gives the radiance and the sampling
-    /// density ([`Map::pdf`]).
+    /// its luminance in w, so that the sampling density ([`Map::pdf`]) reads the texels the
+    /// radiance's lookup has just read.
     texels: Vec<Vec4>,
     dist: Distribution2D,
     /// width / (2π Σ weights): the solid-angle density per unit of the sampling luminance ĝ
