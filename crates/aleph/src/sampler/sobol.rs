@@ -101,8 +101,10 @@ pub const QMC_DIMENSIONS: u32 = 10;
 /// light pair's lattice no longer loses there: the perceptual sampler under budgets of 48 / 64
 /// spp (`--steer-from 0`, seeds 1–4, relMSE against 2048-spp references, g as here) with the
 /// light pair from the lattice too, over without: studio knob 0.99 / 0.95, sunset knob 0.77 /
-/// 0.75, Cornell box 1.01 / 1.01, holodeck 1.00 / 1.00, Lost Empire 1.00 / 1.00. Not yet
-/// adopted (the tests of the light pair's net, the golden renders and the judges' sweeps).
+/// 0.75, Cornell box 1.01 / 1.01, holodeck 1.00 / 1.00, Lost Empire 1.00 / 1.00. Not adopted:
+/// at the studio knob's stopping budgets it loses (1.16 / 1.19 / 1.11 at 16 / 24 / 32 spp) and
+/// that stop rose from 19.8 to 28.8 spp, 0.90× uniform's samples at equal FLIP mean instead of
+/// 1.01× (docs/benchmarks.md, 2026-11-29).
 pub const LATTICE_PAIR: u32 = 6;
 
 /// Generator g of the rank-1 lattice of [`LATTICE_PAIR`]: the 2^m-point lattice {(k, k g) / 2^m
