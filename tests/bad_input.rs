@@ -212,6 +212,25 @@ fn zero_resolution_in_scene_and_on_command_line() {
 }
 
 #[test]
+fn a_camera_without_a_view_direction_says_so() {
+    // look_at equal to position once blamed camera.focus_distance, which nobody had set.
+    let d = tempdir();
+    let camera = CAMERA.replace("look_at = [0, 1, 0]", "look_at = [0, 1, 3]");
+    let s = scene_with(d.path(), &format!("{camera}{LIGHT}"), &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(
+        &e,
+        &["scene.toml", "camera.look_at", "equals camera.position"],
+    );
+    assert!(!e.contains("focus_distance"), "{e}");
+    // Parallel to up: the camera's own check names it.
+    let camera = CAMERA.replace("look_at = [0, 1, 0]", "look_at = [0, 5, 3]");
+    let s = scene_with(d.path(), &format!("{camera}{LIGHT}"), &[]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(&e, &["scene.toml", "parallel to up"]);
+}
+
+#[test]
 fn unknown_material_override() {
     let d = tempdir();
     let toml = format!(

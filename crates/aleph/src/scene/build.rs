@@ -416,6 +416,13 @@ impl SceneDescription {
             )));
         }
         let to_target = Vec3::from(c.look_at) - Vec3::from(c.position);
+        if to_target == Vec3::ZERO {
+            // Before the focus check, which would otherwise blame a distance nobody set.
+            return Err(self.invalid(format!(
+                "camera.look_at {:?} equals camera.position: the camera has no view direction",
+                c.look_at
+            )));
+        }
         let focus = c.focus_distance.unwrap_or(to_target.length());
         if !(focus.is_finite() && focus > 0.0) {
             return Err(self.invalid(format!(
