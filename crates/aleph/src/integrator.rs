@@ -116,11 +116,7 @@ pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> (Ve
     let mut weight = Vec3::ONE;
     for _ in 0..8 {
         let Some(hit) = scene.geometry.intersect(&ray) else {
-            let sky = capped(scene.lights.infinite_radiance(
-                ray.d,
-                Vec3::ZERO,
-                None::<fn(f32) -> f32>,
-            ));
+            let sky = capped(scene.lights.infinite_radiance_unweighted(ray.d));
             return (weight * sky, Vec3::ZERO);
         };
         let facing = if ray.d.dot(hit.ns) > 0.0 {
@@ -262,9 +258,7 @@ impl Integrator {
             return Vec3::ZERO;
         }
         if prev_delta || self.strategy == Strategy::BsdfOnly {
-            return scene
-                .lights
-                .infinite_radiance(d, prev_n, None::<fn(f32) -> f32>);
+            return scene.lights.infinite_radiance_unweighted(d);
         }
         if self.strategy == Strategy::LightOnly {
             return Vec3::ZERO;

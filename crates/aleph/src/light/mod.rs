@@ -505,11 +505,19 @@ impl Lights {
         }
     }
 
+    /// Radiance arriving along unit direction `d` from the lights at infinity, every term with
+    /// weight 1 and no density computed: what a camera ray or a ray after a delta bounce sees.
+    #[inline]
+    pub fn infinite_radiance_unweighted(&self, d: Vec3) -> Vec3 {
+        self.infinite_radiance(d, Vec3::ZERO, None::<fn(f32) -> f32>)
+    }
+
     /// Radiance arriving along unit direction `d` from the lights at infinity (a ray that left
     /// the scene after a vertex of shading normal `n`, or zero), each term weighted by
     /// `weight(pdf)`, where pdf is the solid-angle density with which [`Lights::sample`] would
     /// have chosen that light and direction at that vertex (for MIS). With `weight` `None`
-    /// every term has weight 1 and no density is computed (the camera's rays, delta bounces).
+    /// every term has weight 1 and no density is computed
+    /// ([`Lights::infinite_radiance_unweighted`]).
     #[inline]
     pub fn infinite_radiance(&self, d: Vec3, n: Vec3, weight: Option<impl Fn(f32) -> f32>) -> Vec3 {
         let mut l = Vec3::ZERO;
