@@ -341,3 +341,68 @@ fn ignored_mtl_statements_are_reported_once() {
     assert!(matches!(ghost.emission,
         Some(aleph::material::ColorSource::Constant(c)) if c == glam::Vec3::splat(2.0)));
 }
+
+/// An emitting square of a 512² one-texel checker (codes 0 and 255: 0 and 1 in linear
+/// values), seen head-on so that a pixel spans 64 texels. Camera rays look its texture up over
+/// a quarter of a pixel (`TEXTURE_FOOTPRINT_PIXELS`), 16 texels: mip level 4, where every
+/// texel holds the checker's mean, so every sample reads the same value and each pixel's
+/// variance is zero at 4 spp; point lookups give each sample 0, 1 or a bilinear blend (the
+/// luminance variance of a sample about 0.1). A square magnified (a 4 × 4 checker) keeps its
+/// point lookups: its pixels read the checker's cells.
+#[test]
+fn minified_textures_are_filtered_over_the_pixel_footprint() {
+    let dir = tempdir();
+    let path = dir.path();
+    let checker = |n: u32, name: &str| {
+        png(&path.join(name), n, n, |x, y| {
+            let c = if (x + y) % 2 == 0 { 0 } else { 255 };
+            [c, c, c, 255]
+        })
+    };
+    checker(512, "fine.png");
+    checker(4, "coarse.png");
+    let quad = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n";
+    let toml = r#"
+[camera]
+position = [0.0, 0.0, 2.0]
+look_at = [0.0, 0.0, 0.0]
+vfov_deg = 53.130102
+resolution = [8, 8]
+[render]
+max_depth = 1
+[[mesh]]
+file = "s.obj"
+"#;
+    for (map, filtered) in [("fine.png", true), ("coarse.png", false)] {
+        write_files(
+            path,
+            &[
+                (
+                    "s.obj",
+                    &format!("mtllib m.mtl\nusemtl s\n{quad}f 1/1 2/2 3/3 4/4\n"),
+                ),
+                (
+                    "m.mtl",
+                    &format!("newmtl s\nKd 0 0 0\nKe 1 1 1\nmap_Ke {map}\n"),
+                ),
+                ("scene.toml", toml),
+            ],
+        );
+        let scene = Scene::load(&path.join("scene.toml")).unwrap();
+        let film = render(&scene, Strategy::Mis, 4);
+        let spread: f64 = film.pixels.iter().map(|p| p.lum_variance()).sum::<f64>() / 64.0;
+        if filtered {
+            // The level's texels are the 8-bit code nearest 0.5 in linear values.
+            let code = (0..=255u8)
+                .map(|c| aleph::texture::srgb_to_linear(c as f32 / 255.0))
+                .min_by(|a, b| (a - 0.5).abs().total_cmp(&(b - 0.5).abs()))
+                .unwrap() as f64;
+            for p in &film.pixels {
+                assert!((lum(p) - code).abs() < 1e-6, "{} against {code}", lum(p));
+            }
+            assert!(spread < 1e-10, "variance {spread}");
+        } else {
+            assert!(spread > 0.01, "variance {spread}");
+        }
+    }
+}

@@ -23,10 +23,94 @@ use crate::math::Frame;
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
 use crate::scene::Scene;
+use crate::texture::Footprint;
 use glam::{Vec2, Vec3};
 
 /// Bounce at which Russian roulette starts (Mitsuba 3's `rr_depth`; measured in the module docs).
 pub const RR_START_DEPTH: u32 = 5;
+
+/// Width, in pixels, of the footprint over which textures seen from the camera are filtered:
+/// a surface's textures are looked up over the area a cone of this width per pixel covers
+/// there ([`Cone`]), so texture detail finer than the pixel is averaged by the lookup instead
+/// of by the samples. A quarter of a pixel, as pbrt-v4 scales its camera ray differentials at
+/// 16 spp (`1 / √spp`, at least ⅛), but fixed, so that a pixel's samples converge to the same
+/// image whatever their number (the adaptive sampler's half-buffers must agree in mean).
+pub const TEXTURE_FOOTPRINT_PIXELS: f32 = 0.25;
+
+/// A ray cone (Amanatides 1984; Akenine-Möller et al. 2019, "Texture Level of Detail
+/// Strategies for Real-Time Ray Tracing", Ray Tracing Gems ch. 20): the width of the footprint
+/// a path from the camera covers grows as `spread × distance`, through mirrors and glass as
+/// through empty space (curvature ignored); after a diffuse or glossy bounce the path no longer
+/// stands for a pixel's area, and textures are looked up at a point (`spread` 0).
+#[derive(Clone, Copy, Debug)]
+struct Cone {
+    /// Footprint width per unit distance along the path (radians, small-angle).
+    spread: f32,
+    /// Distance travelled from the camera to the current ray's origin.
+    travelled: f32,
+}
+
+impl Cone {
+    /// The cone of a camera ray: [`TEXTURE_FOOTPRINT_PIXELS`] of the pixel's angular size at
+    /// the image centre (2 tan(fov/2) / height).
+    fn camera(scene: &Scene) -> Cone {
+        let cam = &scene.camera;
+        let pixel = 2.0 * (0.5 * cam.vfov_deg.to_radians()).tan() / cam.height.max(1) as f32;
+        Cone {
+            spread: pixel * TEXTURE_FOOTPRINT_PIXELS,
+            travelled: 0.0,
+        }
+    }
+
+    /// A path that no longer stands for a pixel's footprint.
+    const POINT: Cone = Cone {
+        spread: 0.0,
+        travelled: 0.0,
+    };
+
+    /// The cone after a delta bounce at `hit`: it goes on widening.
+    fn through(self, hit: &Hit) -> Cone {
+        Cone {
+            travelled: self.travelled + hit.t,
+            ..self
+        }
+    }
+
+    /// The cone's footprint on the surface at `hit` seen along `d` (unit), for
+    /// [`crate::material::Material::bsdf`]: its width in texture coordinates is the width w at
+    /// the hit times √(uv area ÷ world area) of the triangle, over √|cos θ| (the footprint's
+    /// area, w² / |cos θ|, taken as a square; cos θ floored at 1/16), bounded by the triangle's
+    /// texture coordinates. A point lookup where the cone has no spread, the triangle's texture
+    /// coordinates are degenerate or the material has no texture.
+    fn footprint(
+        self,
+        scene: &Scene,
+        hit: &Hit,
+        d: Vec3,
+        time: f32,
+        material: &crate::material::Material,
+    ) -> Footprint {
+        if self.spread <= 0.0 || !material.is_textured() {
+            return Footprint::POINT;
+        }
+        let uv = scene.geometry.tris.uvs(hit.tri as usize);
+        let v = scene.geometry.world_vertices(hit.tri, time);
+        let (a, b) = (uv[1] - uv[0], uv[2] - uv[0]);
+        let uv_area = (a.x * b.y - a.y * b.x).abs();
+        let area = (v[1] - v[0]).cross(v[2] - v[0]).length();
+        let w = self.spread * (self.travelled + hit.t);
+        let cos = d.dot(hit.ng).abs().max(1.0 / 16.0);
+        let width = w * (uv_area / (area * cos)).sqrt();
+        if !(width.is_finite() && width > 0.0) {
+            return Footprint::POINT;
+        }
+        Footprint {
+            width,
+            lo: uv[0].min(uv[1]).min(uv[2]),
+            hi: uv[0].max(uv[1]).max(uv[2]),
+        }
+    }
+}
 
 /// Which light-transport strategies are used (MIS by default; the single strategies exist for
 /// tests and comparisons: all three converge to the same image).
@@ -114,6 +198,7 @@ pub fn albedo(scene: &Scene, ray: Ray, rng: &mut impl Sampler) -> Vec3 {
 pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> (Vec3, Vec3) {
     use crate::bsdf::Bsdf;
     let mut weight = Vec3::ONE;
+    let mut cone = Cone::camera(scene);
     for _ in 0..8 {
         let Some(hit) = scene.geometry.intersect(&ray) else {
             let sky = capped(scene.lights.infinite_radiance_unweighted(ray.d));
@@ -126,13 +211,15 @@ pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> (Ve
         };
         let tris = &scene.geometry.tris;
         let material = &scene.materials[tris.material(hit.tri as usize) as usize];
+        let footprint = cone.footprint(scene, &hit, ray.d, ray.time, material);
         if tris.light(hit.tri as usize) != u32::MAX && -ray.d.dot(hit.ng) > 0.0 {
             return (
-                weight * capped(material.emitted(hit.uv, &scene.textures)),
+                weight * capped(material.emitted(hit.uv, footprint, &scene.textures)),
                 facing,
             );
         }
-        let bsdf = material.bsdf(hit.uv, &scene.textures);
+        let bsdf = material.bsdf(hit.uv, footprint, &scene.textures);
+        cone = cone.through(&hit);
         match bsdf {
             Bsdf::Lambert(l) => return (weight * l.reflectance, facing),
             Bsdf::Glossy(g) => return (weight * (g.kd + g.ks), facing),
@@ -348,9 +435,10 @@ impl Integrator {
         hit: &crate::geometry::Hit,
         time: f32,
         material: &crate::material::Material,
+        footprint: Footprint,
         (prev_delta, prev_pdf, prev_p, prev_n): (bool, f32, Vec3, Vec3),
     ) -> (Vec3, f32) {
-        let le = material.emitted(hit.uv, &scene.textures);
+        let le = material.emitted(hit.uv, footprint, &scene.textures);
         let w = if prev_delta {
             1.0
         } else {
@@ -377,6 +465,7 @@ impl Integrator {
         let mut eta_scale = 1.0f32;
         let mut depth = 0u32;
         let mut first = FirstHit::miss(ray.d);
+        let mut cone = Cone::camera(scene);
         loop {
             rays += 1;
             let Some(hit) = geo.intersect(&ray) else {
@@ -392,18 +481,19 @@ impl Integrator {
             let tri = hit.tri as usize;
             let material = &scene.materials[geo.tris.material(tri) as usize];
             let wo_world = -ray.d;
+            let footprint = cone.footprint(scene, &hit, ray.d, ray.time, material);
 
             // Emission seen along the ray (one-sided: front face only).
             if geo.tris.light(tri) != u32::MAX && wo_world.dot(hit.ng) > 0.0 {
                 let prev = (prev_delta, prev_pdf, prev_p, prev_n);
-                let (le, w) = self.emitted_seen(scene, &hit, ray.time, material, prev);
+                let (le, w) = self.emitted_seen(scene, &hit, ray.time, material, footprint, prev);
                 l += beta * le * w;
             }
             if depth >= self.max_depth {
                 break;
             }
 
-            let bsdf = material.bsdf(hit.uv, &scene.textures);
+            let bsdf = material.bsdf(hit.uv, footprint, &scene.textures);
             // Shading frame: opaque surfaces are two-sided, so face the frame towards wo.
             let flip = !bsdf.is_transmissive() && wo_world.dot(hit.ng) < 0.0;
             let sign = if flip { -1.0 } else { 1.0 };
@@ -454,6 +544,11 @@ impl Integrator {
                 break;
             }
             prev_delta = s.delta;
+            cone = if s.delta {
+                cone.through(&hit)
+            } else {
+                Cone::POINT
+            };
             prev_pdf = s.pdf;
             prev_p = hit.p;
             prev_n = ns;

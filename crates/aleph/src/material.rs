@@ -23,7 +23,7 @@
 //! `docs/scene-format.md`.
 
 use crate::bsdf::{Bsdf, Dielectric, Ggx, Glossy, Lambert, Mirror};
-use crate::texture::Texture;
+use crate::texture::{Footprint, Texture};
 use glam::{Vec2, Vec3};
 
 /// A colour that is constant or comes from a texture.
@@ -43,13 +43,14 @@ pub enum ColorSource {
 }
 
 impl ColorSource {
-    /// The value at texture coordinates `uv`.
+    /// The value at texture coordinates `uv`, filtered over a footprint `footprint` wide in
+    /// texture coordinates ([`Texture::lookup_over`]; 0 for a point lookup).
     #[inline]
-    pub fn eval(&self, uv: Vec2, textures: &[Texture]) -> Vec3 {
+    pub fn eval(&self, uv: Vec2, footprint: Footprint, textures: &[Texture]) -> Vec3 {
         match *self {
             ColorSource::Constant(c) => c,
             ColorSource::Texture { id, base, gain } => {
-                Vec3::splat(base) + gain * textures[id as usize].lookup(uv)
+                Vec3::splat(base) + gain * textures[id as usize].lookup_over(uv, footprint)
             }
         }
     }
@@ -123,19 +124,26 @@ pub struct Material {
 }
 
 impl Material {
-    /// The BSDF at texture coordinates `uv`.
+    /// The BSDF at texture coordinates `uv`, its textures filtered over `footprint`
+    /// ([`ColorSource::eval`]; [`Footprint::POINT`] for point lookups).
     #[inline]
-    pub fn bsdf(&self, uv: Vec2, textures: &[Texture]) -> Bsdf {
+    pub fn bsdf(&self, uv: Vec2, footprint: Footprint, textures: &[Texture]) -> Bsdf {
         match self.kind {
             MaterialKind::Diffuse => Bsdf::Lambert(Lambert {
-                reflectance: self.kd.eval(uv, textures).clamp(Vec3::ZERO, Vec3::ONE),
+                reflectance: self
+                    .kd
+                    .eval(uv, footprint, textures)
+                    .clamp(Vec3::ZERO, Vec3::ONE),
             }),
             MaterialKind::Mirror => Bsdf::Mirror(Mirror {
-                reflectance: self.ks.eval(uv, textures).clamp(Vec3::ZERO, Vec3::ONE),
+                reflectance: self
+                    .ks
+                    .eval(uv, footprint, textures)
+                    .clamp(Vec3::ZERO, Vec3::ONE),
             }),
             MaterialKind::Glossy { alpha } => Bsdf::Glossy(Glossy::new(
-                self.kd.eval(uv, textures),
-                self.ks.eval(uv, textures),
+                self.kd.eval(uv, footprint, textures),
+                self.ks.eval(uv, footprint, textures),
                 alpha,
             )),
             MaterialKind::Dielectric { ior } => Bsdf::Dielectric(Dielectric {
@@ -145,13 +153,20 @@ impl Material {
         }
     }
 
-    /// Emitted radiance at `uv` (front side), zero if the material does not emit.
+    /// Emitted radiance at `uv` (front side), its texture filtered over `footprint` as
+    /// [`Material::bsdf`]'s; zero if the material does not emit.
     #[inline]
-    pub fn emitted(&self, uv: Vec2, textures: &[Texture]) -> Vec3 {
+    pub fn emitted(&self, uv: Vec2, footprint: Footprint, textures: &[Texture]) -> Vec3 {
         match &self.emission {
-            Some(e) => e.eval(uv, textures).max(Vec3::ZERO),
+            Some(e) => e.eval(uv, footprint, textures).max(Vec3::ZERO),
             None => Vec3::ZERO,
         }
+    }
+
+    /// True when any of its colours comes from a texture.
+    pub fn is_textured(&self) -> bool {
+        let t = |c: &ColorSource| matches!(c, ColorSource::Texture { .. });
+        t(&self.kd) || t(&self.ks) || self.emission.as_ref().is_some_and(t)
     }
 
     /// GGX α for a Phong exponent `Ns`.

@@ -1,4 +1,5 @@
-//! Image textures: linear RGB, bilinear filtering, repeat wrapping.
+//! Image textures: linear RGB, bilinear filtering, repeat wrapping, and mip maps for lookups
+//! over a footprint (trilinear filtering, Williams 1983, "Pyramidal Parametrics").
 
 use crate::error::{SceneError, SceneResult};
 use glam::{Vec2, Vec3};
@@ -19,6 +20,40 @@ pub struct Texture {
     /// Row-major texels, row 0 at the top of the image.
     texels: Texels,
     mean: Vec3,
+    /// Mip levels 1, 2, … (each half the size of the one before, rounded up, down to 1 × 1),
+    /// empty for a texture without mip maps ([`Texture::with_mip_maps`]).
+    mips: Vec<Level>,
+}
+
+/// What a texture lookup is filtered over ([`Texture::lookup_over`]): a footprint `width`
+/// wide in texture coordinates (the unit square spans the texture), kept inside the texture
+/// coordinates' bounds `lo`..`hi` of the surface looked up (its triangle), so that a texture
+/// atlas's neighbouring tiles do not bleed in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Footprint {
+    /// Width in texture coordinates; 0 for a point lookup.
+    pub width: f32,
+    /// Lower bounds of the surface's texture coordinates.
+    pub lo: Vec2,
+    /// Upper bounds of the surface's texture coordinates.
+    pub hi: Vec2,
+}
+
+impl Footprint {
+    /// A lookup at a point (bilinear, at full size).
+    pub const POINT: Footprint = Footprint {
+        width: 0.0,
+        lo: Vec2::ZERO,
+        hi: Vec2::ZERO,
+    };
+}
+
+/// One mip level: `width × height` texels, row-major, row 0 at the top.
+#[derive(Clone, Debug)]
+struct Level {
+    width: usize,
+    height: usize,
+    texels: Texels,
 }
 
 /// A texture's storage.
@@ -82,7 +117,7 @@ impl Texture {
     /// [`SceneError::Texture`] when the file is missing, unreadable, empty or not a supported
     /// image (PNG, JPEG, Radiance HDR).
     pub fn load(path: &Path) -> SceneResult<Texture> {
-        Texture::load_with(path, true)
+        Ok(Texture::load_with(path, true)?.with_mip_maps())
     }
 
     /// Loads an image of non-colour data (height or normal map): 8- and 16-bit values are
@@ -170,7 +205,45 @@ impl Texture {
             height,
             texels,
             mean,
+            mips: Vec::new(),
         }
+    }
+
+    /// The texture with its mip maps: level k + 1 is level k box-filtered to half its size in
+    /// each direction (rounded up), each texel the exact area-weighted mean of the texels of
+    /// level k it covers (so every level keeps the texture's mean), down to 1 × 1. Levels of an
+    /// 8-bit texture are filtered in linear values and stored as the nearest 8-bit codes of its
+    /// decode table (a third more memory in all); others as linear values. Alpha is ignored
+    /// here as in every lookup: where a cut-out's mask ([`crate::geometry::AlphaMask`]) makes
+    /// holes, the colour of the texels in them takes part in the filtered lookups beside them.
+    pub fn with_mip_maps(mut self) -> Texture {
+        let mut colour: Vec<Vec3> = (0..self.texels.len()).map(|i| self.texels.get(i)).collect();
+        let mut mips: Vec<Level> = Vec::new();
+        let (mut w, mut h) = (self.width, self.height);
+        while w > 1 || h > 1 {
+            let size = (w.div_ceil(2), h.div_ceil(2));
+            colour = box_resample(&colour, (w, h), size);
+            let texels = match &self.texels {
+                Texels::Linear(_) => Texels::Linear(colour.clone()),
+                Texels::Bytes { decode, .. } => Texels::Bytes {
+                    codes: colour.iter().map(|&c| nearest_codes(c, decode)).collect(),
+                    decode: decode.clone(),
+                },
+            };
+            (w, h) = size;
+            mips.push(Level {
+                width: w,
+                height: h,
+                texels,
+            });
+        }
+        self.mips = mips;
+        self
+    }
+
+    /// Number of mip levels past the full-size one (0 without mip maps).
+    pub fn mip_levels(&self) -> usize {
+        self.mips.len()
     }
 
     /// Width and height in texels.
@@ -192,22 +265,137 @@ impl Texture {
     /// bottom of the image), wrapping with period 1.
     #[inline]
     pub fn lookup(&self, uv: Vec2) -> Vec3 {
-        let x = uv.x.rem_euclid(1.0) * self.width as f32 - 0.5;
-        let y = (1.0 - uv.y.rem_euclid(1.0)) * self.height as f32 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let wrap = |i: i64, n: usize| i.rem_euclid(n as i64) as usize;
-        let (xi, yi) = (x0 as i64, y0 as i64);
-        let at =
-            |dx: i64, dy: i64| wrap(yi + dy, self.height) * self.width + wrap(xi + dx, self.width);
-        let corners = [at(0, 0), at(1, 0), at(0, 1), at(1, 1)];
-        // One match on the storage for the four texels, not one per texel.
-        let [t00, t10, t01, t11] = match &self.texels {
-            Texels::Linear(t) => corners.map(|i| t[i]),
-            Texels::Bytes { codes, decode } => corners.map(|i| byte_texel(codes[i], decode)),
-        };
-        (t00 * (1.0 - fx) + t10 * fx) * (1.0 - fy) + (t01 * (1.0 - fx) + t11 * fx) * fy
+        bilinear(self.width, self.height, &self.texels, uv)
     }
+
+    /// The value at `uv` filtered over `footprint`: trilinear filtering between the two mip
+    /// levels whose texel size brackets the footprint's width w, at level of detail
+    /// λ = log₂(w · √(W H)) for a texture of W × H texels (Williams 1983; the isotropic
+    /// footprint of a ray cone, Akenine-Möller et al. 2019, "Texture Level of Detail Strategies
+    /// for Real-Time Ray Tracing", Ray Tracing Gems ch. 20, eq. 20.4). λ is capped where a
+    /// level's texel would be wider than the surface's texture-coordinate bounds (along an axis
+    /// they span less than the whole texture), and each level's bilinear taps are kept inside
+    /// those bounds. Where λ ≤ 0 (the texture is not minified), the width is not finite and
+    /// positive, or the texture has no mip maps, this is exactly [`Texture::lookup`].
+    #[inline]
+    pub fn lookup_over(&self, uv: Vec2, footprint: Footprint) -> Vec3 {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let lod = (footprint.width * (w * h).sqrt()).log2();
+        if self.mips.is_empty() || lod.is_nan() || lod <= 0.0 {
+            return self.lookup(uv);
+        }
+        let span = footprint.hi - footprint.lo;
+        let bounded = (span.x < 1.0, span.y < 1.0);
+        let extent =
+            |bounded: bool, span: f32, n: f32| if bounded { span * n } else { f32::INFINITY };
+        let fits = extent(bounded.0, span.x, w).min(extent(bounded.1, span.y, h));
+        let lod = lod.min(fits.log2()).min(self.mips.len() as f32);
+        if lod.is_nan() || lod <= 0.0 {
+            return self.lookup(uv);
+        }
+        let level = |k: usize| {
+            let (lw, lh, texels) = match k {
+                0 => (self.width, self.height, &self.texels),
+                k => {
+                    let l = &self.mips[k - 1];
+                    (l.width, l.height, &l.texels)
+                }
+            };
+            let keep = |bounded: bool, x: f32, lo: f32, hi: f32, n: usize| {
+                let half = 0.5 / n as f32;
+                if bounded && lo + half <= hi - half {
+                    x.clamp(lo + half, hi - half)
+                } else {
+                    x
+                }
+            };
+            let (lo, hi) = (footprint.lo, footprint.hi);
+            let at = Vec2::new(
+                keep(bounded.0, uv.x, lo.x, hi.x, lw),
+                keep(bounded.1, uv.y, lo.y, hi.y, lh),
+            );
+            bilinear(lw, lh, texels, at)
+        };
+        let k = lod.floor();
+        let f = lod - k;
+        let a = level(k as usize);
+        if f == 0.0 {
+            return a;
+        }
+        a + (level(k as usize + 1) - a) * f
+    }
+}
+
+/// Bilinearly filtered value of a `width × height` level at `uv` (v = 0 at the bottom), with
+/// repeat wrapping.
+#[inline]
+fn bilinear(width: usize, height: usize, texels: &Texels, uv: Vec2) -> Vec3 {
+    let x = uv.x.rem_euclid(1.0) * width as f32 - 0.5;
+    let y = (1.0 - uv.y.rem_euclid(1.0)) * height as f32 - 0.5;
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let wrap = |i: i64, n: usize| i.rem_euclid(n as i64) as usize;
+    let (xi, yi) = (x0 as i64, y0 as i64);
+    let at = |dx: i64, dy: i64| wrap(yi + dy, height) * width + wrap(xi + dx, width);
+    let corners = [at(0, 0), at(1, 0), at(0, 1), at(1, 1)];
+    // One match on the storage for the four texels, not one per texel.
+    let [t00, t10, t01, t11] = match texels {
+        Texels::Linear(t) => corners.map(|i| t[i]),
+        Texels::Bytes { codes, decode } => corners.map(|i| byte_texel(codes[i], decode)),
+    };
+    (t00 * (1.0 - fx) + t10 * fx) * (1.0 - fy) + (t01 * (1.0 - fx) + t11 * fx) * fy
+}
+
+/// For each of `n_out` cells spanning the same length as `n_in` cells, the input cells it
+/// overlaps and the share of the output cell each covers (the shares sum to 1).
+fn box_weights(n_in: usize, n_out: usize) -> Vec<Vec<(usize, f32)>> {
+    let r = n_in as f64 / n_out as f64;
+    (0..n_out)
+        .map(|o| {
+            let (lo, hi) = (o as f64 * r, (o + 1) as f64 * r);
+            (lo.floor() as usize..(hi.ceil() as usize).min(n_in))
+                .map(|i| {
+                    let overlap = (hi.min(i as f64 + 1.0) - lo.max(i as f64)).max(0.0);
+                    (i, (overlap / r) as f32)
+                })
+                .filter(|&(_, w)| w > 0.0)
+                .collect()
+        })
+        .collect()
+}
+
+/// `texels` (`w × h`, row-major) box-filtered to `w2 × h2`: each output texel the
+/// area-weighted mean of the input texels under it (separable: rows, then columns).
+fn box_resample(texels: &[Vec3], (w, h): (usize, usize), (w2, h2): (usize, usize)) -> Vec<Vec3> {
+    use rayon::prelude::*;
+    let (wx, wy) = (box_weights(w, w2), box_weights(h, h2));
+    let mut rows = vec![Vec3::ZERO; w2 * h];
+    rows.par_chunks_mut(w2).enumerate().for_each(|(y, out)| {
+        let row = &texels[y * w..(y + 1) * w];
+        for (o, ws) in out.iter_mut().zip(&wx) {
+            *o = ws.iter().map(|&(i, a)| row[i] * a).sum();
+        }
+    });
+    let mut out = vec![Vec3::ZERO; w2 * h2];
+    out.par_chunks_mut(w2).zip(&wy).for_each(|(line, ws)| {
+        for (x, o) in line.iter_mut().enumerate() {
+            *o = ws.iter().map(|&(j, a)| rows[j * w2 + x] * a).sum();
+        }
+    });
+    out
+}
+
+/// The 8-bit codes whose decoded values are nearest to `c`, channel by channel (`decode` is
+/// non-decreasing).
+fn nearest_codes(c: Vec3, decode: &[f32; 256]) -> [u8; 3] {
+    c.to_array().map(|v| {
+        let i = decode.partition_point(|&d| d < v).min(255);
+        if i > 0 && (v - decode[i - 1]).abs() <= (decode[i] - v).abs() {
+            (i - 1) as u8
+        } else {
+            i as u8
+        }
+    })
 }
 
 /// How a bump or normal map perturbs the shading normal.
@@ -341,5 +529,152 @@ mod tests {
         // Halfway between texel 1 and the wrapped texel 0.
         assert!((t.lookup(Vec2::new(1.0, 0.5)) - Vec3::splat(0.5)).length() < 1e-6);
         assert!((t.lookup(Vec2::new(1.75, 0.5)) - Vec3::ONE).length() < 1e-6);
+    }
+
+    /// A texture of `w × h` random texels (deterministic).
+    fn noise(w: usize, h: usize, seed: u64) -> Vec<Vec3> {
+        let mut rng = crate::rng::Rng::new(seed, 1);
+        (0..w * h)
+            .map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()))
+            .collect()
+    }
+
+    /// Every level keeps the texture's mean (the box filter covers each texel of the level
+    /// below exactly once, odd sizes included), the last is 1 × 1, and each level's texel is
+    /// the mean of the texels it covers: for even sizes the plain 2 × 2 mean, computed here
+    /// directly.
+    #[test]
+    fn mip_levels_are_exact_box_means() {
+        for (w, h) in [(16, 16), (13, 7), (1, 9), (64, 3)] {
+            let t = Texture::from_texels(w, h, noise(w, h, 7)).with_mip_maps();
+            let mut size = (w, h);
+            for l in &t.mips {
+                size = (size.0.div_ceil(2), size.1.div_ceil(2));
+                assert_eq!((l.width, l.height), size);
+                let n = l.width * l.height;
+                let mean = (0..n).map(|i| l.texels.get(i)).sum::<Vec3>() / n as f32;
+                // Equal-area cells: the mean of the level is the texture's where the sizes
+                // halve exactly; with odd sizes the cells still cover equal areas.
+                assert!(
+                    (mean - t.mean()).abs().max_element() < 1e-5,
+                    "{w}×{h}: {mean} {}",
+                    t.mean()
+                );
+            }
+            assert_eq!(size, (1, 1));
+            assert_eq!(t.mip_levels(), t.mips.len());
+        }
+        let base = noise(8, 8, 3);
+        let t = Texture::from_texels(8, 8, base.clone()).with_mip_maps();
+        let l1 = &t.mips[0];
+        for (y, x) in (0..4).flat_map(|y| (0..4).map(move |x| (y, x))) {
+            let want = (base[2 * y * 8 + 2 * x]
+                + base[2 * y * 8 + 2 * x + 1]
+                + base[(2 * y + 1) * 8 + 2 * x]
+                + base[(2 * y + 1) * 8 + 2 * x + 1])
+                / 4.0;
+            assert!((l1.texels.get(y * 4 + x) - want).abs().max_element() < 1e-6);
+        }
+    }
+
+    /// An 8-bit texture's levels hold the codes nearest their linear means: within half a
+    /// code's step of the mean computed in linear values.
+    #[test]
+    fn byte_levels_round_to_the_nearest_code() {
+        let decode = byte_decode_table(true);
+        let codes: Vec<[u8; 3]> = (0..64u32)
+            .map(|i| [(i * 37 % 256) as u8, (i * 11) as u8, 200])
+            .collect();
+        let t = Texture::with_texels(
+            8,
+            8,
+            Texels::Bytes {
+                codes: codes.clone(),
+                decode: decode.clone(),
+            },
+        )
+        .with_mip_maps();
+        let top = &t.mips.last().unwrap().texels;
+        let got = top.get(0);
+        let want = t.mean();
+        for c in 0..3 {
+            let i = decode.partition_point(|&d| d < want[c]).min(255);
+            let step = decode[i.max(1)] - decode[i.max(1) - 1];
+            assert!((got[c] - want[c]).abs() <= step, "{got} {want}");
+        }
+    }
+
+    /// Trilinear lookups: not minified (λ ≤ 0) they are the bilinear lookup bit for bit; far
+    /// minified they read the last level, the texture's mean; between two levels they blend
+    /// them linearly in λ.
+    #[test]
+    fn lookups_over_a_footprint_pick_and_blend_levels() {
+        let t = Texture::from_texels(32, 32, noise(32, 32, 11)).with_mip_maps();
+        let unbounded = |width| Footprint {
+            width,
+            lo: Vec2::splat(-5.0),
+            hi: Vec2::splat(5.0),
+        };
+        for i in 0..50 {
+            let uv = Vec2::new(i as f32 * 0.137, i as f32 * 0.071);
+            assert_eq!(t.lookup_over(uv, unbounded(1.0 / 32.0)), t.lookup(uv));
+            assert_eq!(t.lookup_over(uv, unbounded(0.0)), t.lookup(uv));
+            assert_eq!(t.lookup_over(uv, Footprint::POINT), t.lookup(uv));
+            assert!(
+                (t.lookup_over(uv, unbounded(4.0)) - t.mean())
+                    .abs()
+                    .max_element()
+                    < 1e-5
+            );
+            // λ = 1.5: halfway between levels 1 and 2.
+            let w = 2f32.powf(1.5) / 32.0;
+            let (l1, l2) = (&t.mips[0], &t.mips[1]);
+            let a = bilinear(l1.width, l1.height, &l1.texels, uv);
+            let b = bilinear(l2.width, l2.height, &l2.texels, uv);
+            assert!(
+                (t.lookup_over(uv, unbounded(w)) - (a + b) * 0.5)
+                    .abs()
+                    .max_element()
+                    < 1e-5
+            );
+        }
+        // No mip maps: always the bilinear lookup.
+        let plain = Texture::from_texels(32, 32, noise(32, 32, 11));
+        assert_eq!(
+            plain.lookup_over(Vec2::splat(0.3), unbounded(1.0)),
+            plain.lookup(Vec2::splat(0.3))
+        );
+    }
+
+    /// An atlas of two 8 × 8 tiles, black and white: a surface mapped to the white tile and
+    /// looked up far minified reads white, not the atlas's grey (the level is capped where a
+    /// texel would outgrow the tile, and the taps stay inside it); without the bounds it
+    /// reads the grey mean.
+    #[test]
+    fn footprints_stay_inside_their_tile() {
+        let texels: Vec<Vec3> = (0..16 * 8)
+            .map(|i| if i % 16 >= 8 { Vec3::ONE } else { Vec3::ZERO })
+            .collect();
+        let t = Texture::from_texels(16, 8, texels).with_mip_maps();
+        let tile = Footprint {
+            width: 1.0,
+            lo: Vec2::new(0.5, 0.0),
+            hi: Vec2::new(1.0, 1.0),
+        };
+        for i in 0..20 {
+            let uv = Vec2::new(0.5 + 0.5 * i as f32 / 19.0, 0.37);
+            assert_eq!(t.lookup_over(uv, tile), Vec3::ONE, "{uv}");
+        }
+        let free = Footprint {
+            width: 4.0,
+            lo: Vec2::splat(-1.0),
+            hi: Vec2::splat(2.0),
+        };
+        assert!(
+            (t.lookup_over(Vec2::new(0.75, 0.37), free) - Vec3::splat(0.5))
+                .abs()
+                .max_element()
+                < 1e-5
+        );
     }
 }

@@ -101,7 +101,8 @@ impl TriangleLight {
         }
         let (uvs, material) = (geo.tris.uvs(tri as usize), geo.tris.material(tri as usize));
         let uv = uvs[0] * b.x + uvs[1] * b.y + uvs[2] * b0;
-        let le = materials[material as usize].emitted(uv, textures);
+        let le =
+            materials[material as usize].emitted(uv, crate::texture::Footprint::POINT, textures);
         let pdf = pmf / area * dist2 / cos_l;
         Some(LightSample {
             p,
