@@ -124,7 +124,7 @@
 //! and the farm parts kept their pixels.
 //!
 //! The holodeck's and Lost Empire's cases (the two textured scenes, stills and the pan's
-//! three sequences) were re-recorded when camera rays came to look textures up over a quarter
+//! three sequences) were re-recorded when camera rays came to look textures up over an eighth
 //! of a pixel's footprint through mip maps (`aleph::integrator::TEXTURE_FOOTPRINT_PIXELS`);
 //! the scenes without textures kept their pixels.
 //!
@@ -435,31 +435,31 @@ pub const GOLDEN: &[(&str, u64)] = &[
         "scenes/cornell-variants/sphere.toml converged",
         0xee24820fa3d67151,
     ),
-    ("scenes/holodeck/scene.toml uniform", 0xc0505bca285aec27),
-    ("scenes/holodeck/scene.toml perceptual", 0x06339afd1c698b61),
-    ("scenes/holodeck/scene.toml variance", 0x9166451a07fc3aa8),
-    ("scenes/holodeck/scene.toml converged", 0xa21553ef1aa5192c),
-    ("scenes/lost-empire/scene.toml uniform", 0x0636ec3267025075),
+    ("scenes/holodeck/scene.toml uniform", 0x03b61deab2072dea),
+    ("scenes/holodeck/scene.toml perceptual", 0xa29991e266341dbd),
+    ("scenes/holodeck/scene.toml variance", 0xf37b3e44c450120e),
+    ("scenes/holodeck/scene.toml converged", 0xbc1e8992b4ba1861),
+    ("scenes/lost-empire/scene.toml uniform", 0xd117f5e577df4d9e),
     (
         "scenes/lost-empire/scene.toml perceptual",
-        0x2f00c7719f63c0b9,
+        0xfac25a58dba25464,
     ),
-    ("scenes/lost-empire/scene.toml variance", 0x7b818590649b53bb),
+    ("scenes/lost-empire/scene.toml variance", 0x43c6eb03d7ba75eb),
     (
         "scenes/lost-empire/scene.toml converged",
-        0x017b7c40d226fc4b,
+        0x06efaf5ea6c6e556,
     ),
     ("scenes/mori-knob/scene.toml uniform", 0x599e250e109ca348),
     ("scenes/mori-knob/scene.toml perceptual", 0x3e17fd87c1fe6d6e),
     ("scenes/mori-knob/scene.toml variance", 0x9a7ac1dbcfe458c5),
     ("scenes/mori-knob/scene.toml converged", 0xf1aa7242fa2f75b8),
     ("cornell-motion sequence", 0xc02011fad3d03cfb),
-    ("holodeck pan sequence", 0x9b93e1b779abe92e),
+    ("holodeck pan sequence", 0xffd2268e6e50e2c2),
     ("cornell-motion sequence reusing frames", 0xe382ff993bfd068f),
-    ("holodeck pan sequence reusing frames", 0x74074b74ca509236),
+    ("holodeck pan sequence reusing frames", 0x67cc08a2f6099066),
     (
         "holodeck pan sequence reusing frames, levelled",
-        0x053d3dc375234c3e,
+        0x88c2877d6f70baa6,
     ),
     ("cornell-box parts merged", 0x281a79598ea67101),
     ("cornell-motion frame parts merged", 0x7cdf508c0c42ee55),

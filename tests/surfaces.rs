@@ -344,7 +344,7 @@ fn ignored_mtl_statements_are_reported_once() {
 
 /// An emitting square of a 512² one-texel checker (codes 0 and 255: 0 and 1 in linear
 /// values), seen head-on so that a pixel spans 64 texels. Camera rays look its texture up over
-/// a quarter of a pixel (`TEXTURE_FOOTPRINT_PIXELS`), 16 texels: mip level 4, where every
+/// an eighth of a pixel (`TEXTURE_FOOTPRINT_PIXELS`), 8 texels: mip level 3, where every
 /// texel holds the checker's mean, so every sample reads the same value and each pixel's
 /// variance is zero at 4 spp; point lookups give each sample 0, 1 or a bilinear blend (the
 /// luminance variance of a sample about 0.1). A square magnified (a 4 × 4 checker) keeps its

@@ -31,11 +31,17 @@ pub const RR_START_DEPTH: u32 = 5;
 
 /// Width, in pixels, of the footprint over which textures seen from the camera are filtered:
 /// a surface's textures are looked up over the area a cone of this width per pixel covers
-/// there ([`Cone`]), so texture detail finer than the pixel is averaged by the lookup instead
-/// of by the samples. A quarter of a pixel, as pbrt-v4 scales its camera ray differentials at
-/// 16 spp (`1 / √spp`, at least ⅛), but fixed, so that a pixel's samples converge to the same
-/// image whatever their number (the adaptive sampler's half-buffers must agree in mean).
-pub const TEXTURE_FOOTPRINT_PIXELS: f32 = 0.25;
+/// there ([`Cone`]), so that texture detail finer than the pixel is averaged in part by the
+/// lookup instead of by the samples. An eighth of a pixel, pbrt-v4's floor for its camera ray
+/// differentials (it scales them by max(⅛, 1/√spp)), fixed so that a pixel's samples
+/// converge to the same image whatever their number (the adaptive sampler's half-buffers must
+/// agree in mean). The filtered image is not the point-sampled one: measured against
+/// point-sampled 1024-spp references (docs/benchmarks.md, "Textures filtered over an eighth
+/// of a pixel"), the holodeck's and Lost Empire's uniform renders come closer to them at
+/// 4–32 spp by FLIP and at 4–64 spp by relMSE; a quarter of a pixel gained more against its
+/// own reference but left a floor of FLIP mean 0.076 against the point-sampled one at 64 spp
+/// on the holodeck, where uniform sampling reaches 0.053.
+pub const TEXTURE_FOOTPRINT_PIXELS: f32 = 0.125;
 
 /// A ray cone (Amanatides 1984; Akenine-Möller et al. 2019, "Texture Level of Detail
 /// Strategies for Real-Time Ray Tracing", Ray Tracing Gems ch. 20): the width of the footprint

@@ -217,16 +217,20 @@ impl Texture {
     /// here as in every lookup: where a cut-out's mask ([`crate::geometry::AlphaMask`]) makes
     /// holes, the colour of the texels in them takes part in the filtered lookups beside them.
     pub fn with_mip_maps(mut self) -> Texture {
-        let mut colour: Vec<Vec3> = (0..self.texels.len()).map(|i| self.texels.get(i)).collect();
+        use rayon::prelude::*;
         let mut mips: Vec<Level> = Vec::new();
         let (mut w, mut h) = (self.width, self.height);
+        let mut colour: Vec<Vec3> = Vec::new();
         while w > 1 || h > 1 {
             let size = (w.div_ceil(2), h.div_ceil(2));
-            colour = box_resample(&colour, (w, h), size);
+            colour = match mips.last() {
+                None => downsample(&|i| self.texels.get(i), (w, h), size),
+                Some(_) => downsample(&|i| colour[i], (w, h), size),
+            };
             let texels = match &self.texels {
                 Texels::Linear(_) => Texels::Linear(colour.clone()),
                 Texels::Bytes { decode, .. } => Texels::Bytes {
-                    codes: colour.iter().map(|&c| nearest_codes(c, decode)).collect(),
+                    codes: colour.par_iter().map(|&c| nearest_codes(c, decode)).collect(),
                     decode: decode.clone(),
                 },
             };
@@ -330,18 +334,29 @@ impl Texture {
 /// repeat wrapping.
 #[inline]
 fn bilinear(width: usize, height: usize, texels: &Texels, uv: Vec2) -> Vec3 {
-    let x = uv.x.rem_euclid(1.0) * width as f32 - 0.5;
-    let y = (1.0 - uv.y.rem_euclid(1.0)) * height as f32 - 0.5;
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
-    let wrap = |i: i64, n: usize| i.rem_euclid(n as i64) as usize;
-    let (xi, yi) = (x0 as i64, y0 as i64);
-    let at = |dx: i64, dy: i64| wrap(yi + dy, height) * width + wrap(xi + dx, width);
-    let corners = [at(0, 0), at(1, 0), at(0, 1), at(1, 1)];
-    // One match on the storage for the four texels, not one per texel.
-    let [t00, t10, t01, t11] = match texels {
-        Texels::Linear(t) => corners.map(|i| t[i]),
-        Texels::Bytes { codes, decode } => corners.map(|i| byte_texel(codes[i], decode)),
+    // Texel coordinates plus one, so that they are positive and truncation is the floor
+    // (without a call to libm's floorf or fmodf where the CPU has no rounding instruction).
+    let unit = |t: f32| {
+        if (0.0..1.0).contains(&t) {
+            t
+        } else {
+            t.rem_euclid(1.0)
+        }
+    };
+    let x = unit(uv.x) * width as f32 + 0.5;
+    let y = (1.0 - unit(uv.y)) * height as f32 + 0.5;
+    let (xi, yi) = (x as usize, y as usize);
+    let (fx, fy) = (x - xi as f32, y - yi as f32);
+    // Columns xi − 1 and xi, rows yi − 1 and yi, wrapped (xi ≤ width, yi ≤ height).
+    let wrap = |i: usize, n: usize| if i >= n { i - n } else { i };
+    let (x0, x1) = (wrap(xi + width - 1, width), wrap(xi, width));
+    let (r0, r1) = (wrap(yi + height - 1, height) * width, wrap(yi, height) * width);
+    let (t00, t10, t01, t11) = match texels {
+        Texels::Linear(t) => (t[r0 + x0], t[r0 + x1], t[r1 + x0], t[r1 + x1]),
+        Texels::Bytes { codes, decode } => {
+            let d = |i: usize| byte_texel(codes[i], decode);
+            (d(r0 + x0), d(r0 + x1), d(r1 + x0), d(r1 + x1))
+        }
     };
     (t00 * (1.0 - fx) + t10 * fx) * (1.0 - fy) + (t01 * (1.0 - fx) + t11 * fx) * fy
 }
@@ -364,19 +379,33 @@ fn box_weights(n_in: usize, n_out: usize) -> Vec<Vec<(usize, f32)>> {
         .collect()
 }
 
-/// `texels` (`w × h`, row-major) box-filtered to `w2 × h2`: each output texel the
-/// area-weighted mean of the input texels under it (separable: rows, then columns).
-fn box_resample(texels: &[Vec3], (w, h): (usize, usize), (w2, h2): (usize, usize)) -> Vec<Vec3> {
+/// The texels `get(i)` of a `w × h` level (row-major) box-filtered to `w2 × h2`: each output
+/// texel the area-weighted mean of the input texels under it. Halving an even size is the
+/// plain 2 × 2 mean; other sizes go through [`box_weights`], rows then columns.
+fn downsample(
+    get: &(dyn Fn(usize) -> Vec3 + Sync),
+    (w, h): (usize, usize),
+    (w2, h2): (usize, usize),
+) -> Vec<Vec3> {
     use rayon::prelude::*;
+    let mut out = vec![Vec3::ZERO; w2 * h2];
+    if w == 2 * w2 && h == 2 * h2 {
+        out.par_chunks_mut(w2).enumerate().for_each(|(y, line)| {
+            let (r0, r1) = (2 * y * w, (2 * y + 1) * w);
+            for (x, o) in line.iter_mut().enumerate() {
+                let c = 2 * x;
+                *o = (get(r0 + c) + get(r0 + c + 1) + get(r1 + c) + get(r1 + c + 1)) * 0.25;
+            }
+        });
+        return out;
+    }
     let (wx, wy) = (box_weights(w, w2), box_weights(h, h2));
     let mut rows = vec![Vec3::ZERO; w2 * h];
-    rows.par_chunks_mut(w2).enumerate().for_each(|(y, out)| {
-        let row = &texels[y * w..(y + 1) * w];
-        for (o, ws) in out.iter_mut().zip(&wx) {
-            *o = ws.iter().map(|&(i, a)| row[i] * a).sum();
+    rows.par_chunks_mut(w2).enumerate().for_each(|(y, line)| {
+        for (o, ws) in line.iter_mut().zip(&wx) {
+            *o = ws.iter().map(|&(i, a)| get(y * w + i) * a).sum();
         }
     });
-    let mut out = vec![Vec3::ZERO; w2 * h2];
     out.par_chunks_mut(w2).zip(&wy).for_each(|(line, ws)| {
         for (x, o) in line.iter_mut().enumerate() {
             *o = ws.iter().map(|&(j, a)| rows[j * w2 + x] * a).sum();
