@@ -230,7 +230,10 @@ impl Texture {
             let texels = match &self.texels {
                 Texels::Linear(_) => Texels::Linear(colour.clone()),
                 Texels::Bytes { decode, .. } => Texels::Bytes {
-                    codes: colour.par_iter().map(|&c| nearest_codes(c, decode)).collect(),
+                    codes: colour
+                        .par_iter()
+                        .map(|&c| nearest_codes(c, decode))
+                        .collect(),
                     decode: decode.clone(),
                 },
             };
@@ -350,7 +353,10 @@ fn bilinear(width: usize, height: usize, texels: &Texels, uv: Vec2) -> Vec3 {
     // Columns xi − 1 and xi, rows yi − 1 and yi, wrapped (xi ≤ width, yi ≤ height).
     let wrap = |i: usize, n: usize| if i >= n { i - n } else { i };
     let (x0, x1) = (wrap(xi + width - 1, width), wrap(xi, width));
-    let (r0, r1) = (wrap(yi + height - 1, height) * width, wrap(yi, height) * width);
+    let (r0, r1) = (
+        wrap(yi + height - 1, height) * width,
+        wrap(yi, height) * width,
+    );
     let (t00, t10, t01, t11) = match texels {
         Texels::Linear(t) => (t[r0 + x0], t[r0 + x1], t[r1 + x0], t[r1 + x1]),
         Texels::Bytes { codes, decode } => {
