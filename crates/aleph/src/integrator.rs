@@ -16,6 +16,9 @@
 //! 5 reaches equal error in 1.08–1.17× less time; with independent numbers aleph's per-sample
 //! relMSE then equals Mitsuba's `independent` sampler's (0.01102 / 0.00278 against 0.01098 /
 //! 0.00279). (An earlier measurement had found the two starts equally efficient.)
+//!
+//! Textures seen from the camera, directly or through mirrors and glass, are filtered over a
+//! fixed share of the pixel's footprint, carried as a ray cone ([`TEXTURE_FOOTPRINT_PIXELS`]).
 
 use crate::geometry::{Hit, Ray, offset_origin};
 use crate::light::LightSample;
@@ -453,7 +456,9 @@ impl Integrator {
         (le, w)
     }
 
-    /// Estimates the radiance arriving along `ray`.
+    /// Estimates the radiance arriving along `ray`, a camera ray of `scene.camera`: the
+    /// textures it and its mirror and glass bounces see are filtered over its pixel's
+    /// footprint ([`TEXTURE_FOOTPRINT_PIXELS`]).
     /// `rng` gives the path's canonical random numbers in order: per vertex the light choice
     /// (1-D; passed over unless [`crate::light::Lights::chooses_with_own_sample`], the point's
     /// first coordinate choosing otherwise), the point on the light (2-D), the lobe choice
