@@ -34,7 +34,7 @@ pub const RR_START_DEPTH: u32 = 5;
 
 /// Width, in pixels, of the footprint over which textures seen from the camera are filtered:
 /// a surface's textures are looked up over the area a cone of this width per pixel covers
-/// there ([`Cone`]), so that texture detail finer than the pixel is averaged in part by the
+/// there (a ray cone), so that texture detail finer than the pixel is averaged in part by the
 /// lookup instead of by the samples. An eighth of a pixel, pbrt-v4's floor for its camera ray
 /// differentials (it scales them by max(⅛, 1/√spp)), fixed so that a pixel's samples
 /// converge to the same image whatever their number (the adaptive sampler's half-buffers must
