@@ -85,6 +85,15 @@ impl Cone {
         }
     }
 
+    /// The cone after a bounce at `hit`: [`Cone::through`] a delta bounce, else none.
+    fn after(self, hit: &Hit, delta: bool) -> Cone {
+        if delta {
+            self.through(hit)
+        } else {
+            Cone::POINT
+        }
+    }
+
     /// The cone's footprint on the surface at `hit` seen along `d` (unit), for
     /// [`crate::material::Material::bsdf`]: its width in texture coordinates is the width w at
     /// the hit times √(uv area ÷ world area) of the triangle, over √|cos θ| (the footprint's
@@ -555,11 +564,7 @@ impl Integrator {
                 break;
             }
             prev_delta = s.delta;
-            cone = if s.delta {
-                cone.through(&hit)
-            } else {
-                Cone::POINT
-            };
+            cone = cone.after(&hit, s.delta);
             prev_pdf = s.pdf;
             prev_p = hit.p;
             prev_n = ns;
