@@ -22,6 +22,7 @@
 
 use crate::geometry::{Hit, Ray, offset_origin};
 use crate::light::LightSample;
+use crate::light::environment::Environment;
 use crate::math::Frame;
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
@@ -180,6 +181,14 @@ impl FirstHit {
         FirstHit {
             tri: u32::MAX,
             at: d,
+        }
+    }
+
+    /// A ray that hit `hit`.
+    pub fn of(hit: &Hit) -> FirstHit {
+        FirstHit {
+            tri: hit.tri,
+            at: hit.p,
         }
     }
 }
@@ -486,17 +495,17 @@ impl Integrator {
         let mut depth = 0u32;
         let mut first = FirstHit::miss(ray.d);
         let mut cone = Cone::camera(scene);
+        let env_map = scene.lights.environment_map();
         loop {
+            let ahead = LightAhead::draw(env_map, rng);
             rays += 1;
             let Some(hit) = geo.intersect(&ray) else {
                 l += beta * self.escaped(scene, ray.d, prev_delta, prev_pdf, prev_n);
                 break;
             };
+            ahead.prefetch_texels();
             if depth == 0 {
-                first = FirstHit {
-                    tri: hit.tri,
-                    at: hit.p,
-                };
+                first = FirstHit::of(&hit);
             }
             let tri = hit.tri as usize;
             let material = &scene.materials[geo.tris.material(tri) as usize];
@@ -524,8 +533,8 @@ impl Integrator {
 
             // Next-event estimation.
             let nee = !bsdf.is_delta() && self.strategy != Strategy::BsdfOnly;
-            let uc_light = rng.uniform_if(nee && scene.lights.chooses_with_own_sample());
-            let u_light = rng.uniform2_if(nee);
+            let own = scene.lights.chooses_with_own_sample();
+            let (uc_light, u_light) = ahead.numbers(rng, nee && own, nee);
             if nee {
                 let at = Vertex {
                     hit: &hit,
@@ -588,6 +597,46 @@ impl Integrator {
             radiance: l,
             rays,
             first,
+        }
+    }
+}
+
+/// The light sample's numbers (`uc`, `u`) for the vertex the next ray finds, drawn before the
+/// ray is cast when the scene has an environment map, which then starts loading the map's
+/// bucket for `u` while the ray traverses the BVH ([`Environment::prefetch_sample`]) and its
+/// texels once the ray has hit ([`LightAhead::prefetch_texels`]): on a 1k map the bucket and
+/// then the texels each missed the last-level cache, one after the other, at every light
+/// sample. The same numbers in the same order as drawing them at the vertex; those a vertex
+/// would have passed over (a path that ends there, a delta BSDF, a light choice without its
+/// own number) are computed and not used.
+struct LightAhead<'a>(Option<(&'a Environment, f32, Vec2)>);
+
+impl<'a> LightAhead<'a> {
+    /// Draws the numbers if `env` is a map (else nothing: they are drawn at the vertex).
+    #[inline]
+    fn draw(env: Option<&'a Environment>, rng: &mut impl Sampler) -> Self {
+        LightAhead(env.map(|env| {
+            let (uc, u) = (rng.uniform(), rng.uniform2());
+            env.prefetch_sample(u);
+            (env, uc, u)
+        }))
+    }
+
+    /// Starts loading the texels the map's sample will read, once the bucket has had time.
+    #[inline]
+    fn prefetch_texels(&self) {
+        if let Some((env, _, u)) = self.0 {
+            env.prefetch_sample_texels(u);
+        }
+    }
+
+    /// The numbers drawn ahead, or else drawn now: `uc` if `uses_uc`, `u` if `uses_u` (each
+    /// passed over otherwise, [`Sampler::uniform_if`]).
+    #[inline]
+    fn numbers(&self, rng: &mut impl Sampler, uses_uc: bool, uses_u: bool) -> (f32, Vec2) {
+        match self.0 {
+            Some((_, uc, u)) => (uc, u),
+            None => (rng.uniform_if(uses_uc), rng.uniform2_if(uses_u)),
         }
     }
 }

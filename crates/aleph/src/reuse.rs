@@ -1027,19 +1027,11 @@ const PREFETCH_AHEAD: usize = 16;
 /// the build without before and after the build with it).
 #[inline]
 fn prefetch<T>(rows: &[Vec<T>], i: usize) {
-    #[cfg(target_arch = "x86_64")]
     for row in rows {
         if let Some(p) = row.get(i) {
-            // SAFETY: a prefetch is only a hint, and its address is an element's.
-            unsafe {
-                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                    (p as *const T).cast(),
-                )
-            }
+            crate::math::prefetch(p);
         }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (rows, i);
 }
 
 /// Pixel `i`'s history: the layer's frames summed with `shares` (one per frame).

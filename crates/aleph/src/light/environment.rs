@@ -145,7 +145,7 @@ pub struct Environment {
 #[derive(Clone, Debug)]
 enum Source {
     Constant(Vec3),
-    Map(Map),
+    Map(Box<Map>),
 }
 
 /// An equirectangular map and what sampling it needs, in map space.
@@ -232,7 +232,7 @@ impl Environment {
         Some(Environment {
             to_map: to_world.transpose(),
             to_world,
-            source: Source::Map(Map {
+            source: Source::Map(Box::new(Map {
                 width,
                 height,
                 texels,
@@ -241,7 +241,7 @@ impl Environment {
                 mean_y: (sum_y / sum_w) as f32,
                 sh,
                 rows,
-            }),
+            })),
         })
     }
 
@@ -371,6 +371,31 @@ impl Environment {
         }
     }
 
+    /// True for an equirectangular map, false for a constant environment.
+    #[inline]
+    pub fn is_map(&self) -> bool {
+        matches!(self.source, Source::Map(_))
+    }
+
+    /// Starts loading what [`Environment::sample`] will read first for `u` (a map's bucket of
+    /// its sampling table, [`Distribution2D::prefetch`]), so that a sample drawn after other
+    /// work finds it in the cache. A hint: nothing observable changes.
+    #[inline]
+    pub fn prefetch_sample(&self, u: Vec2) {
+        if let Source::Map(m) = &self.source {
+            m.dist.prefetch(u);
+        }
+    }
+
+    /// Starts loading the texels [`Environment::sample`] will read for `u`; call it after
+    /// [`Environment::prefetch_sample`] has had time to bring the bucket in. A hint.
+    #[inline]
+    pub fn prefetch_sample_texels(&self, u: Vec2) {
+        if let Source::Map(m) = &self.source {
+            m.prefetch_texels(u);
+        }
+    }
+
     /// Solid-angle density with which [`Environment::sample`] picks world direction `d` for a
     /// surface of unit shading normal `n` (or zero).
     #[inline]
@@ -455,7 +480,7 @@ impl Map {
     /// instead of staying flat over the texel.
     #[inline]
     fn sample(&self, u: Vec2) -> (f32, usize, f32, f32) {
-        let (p, _) = self.dist.sample(u);
+        let p = self.dist.sample(u);
         let (w, h) = (self.width, self.height);
         let (xw, yh) = (p.x * w as f32, p.y * h as f32);
         let (c, r) = ((xw as usize).min(w - 1), (yh as usize).min(h - 1));
@@ -472,6 +497,21 @@ impl Map {
         // ĝ at the point, as [`Map::pdf_in_row`] finds it from the texels.
         let g_hat = row[hx] * (1.0 - f) + row[hx + 1] * f;
         (u_map, r, s, g_hat * self.pdf_scale)
+    }
+
+    /// Starts loading the texels [`Map::sample`] will read for `u` (the 3 × 3 around the cell
+    /// it draws), when the cell can be told from the bucket alone ([`Distribution2D::cell`]).
+    #[inline]
+    fn prefetch_texels(&self, u: Vec2) {
+        let Some((r, c)) = self.dist.cell(u) else {
+            return;
+        };
+        let w = self.width;
+        let (left, right) = (if c == 0 { w - 1 } else { c - 1 }, (c + 1) % w);
+        for rr in [r.saturating_sub(1), r, (r + 1).min(self.height - 1)] {
+            crate::math::prefetch(&self.texels[rr * w + left]);
+            crate::math::prefetch(&self.texels[rr * w + right]);
+        }
     }
 
     /// ĝ at the texel's centre, edge midpoints and corners: [i][j] at s = i/2, x = j/2.

@@ -302,6 +302,19 @@ impl Lights {
         })
     }
 
+    /// The environment map among the lights at infinity, if any (a constant environment is
+    /// not one), whose sampling tables and texels a path loads ahead of its light samples
+    /// ([`Environment::prefetch_sample`]).
+    #[inline]
+    pub fn environment_map(&self) -> Option<&Environment> {
+        self.lights[self.n_tris..self.n_tris + self.n_infinite]
+            .iter()
+            .find_map(|l| match l {
+                Light::Environment(e) if e.is_map() => Some(&**e),
+                _ => None,
+            })
+    }
+
     /// The suns.
     pub fn suns(&self) -> impl Iterator<Item = &Sun> + '_ {
         self.lights.iter().filter_map(|l| match l {
