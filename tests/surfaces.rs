@@ -17,15 +17,23 @@ fn png(path: &Path, w: u32, h: u32, f: impl Fn(u32, u32) -> [u8; 4]) {
 }
 
 /// A screen at y = 1 over a floor y = 0 under a sun straight above; the screen's `map_d` is
-/// open (alpha 0) where u < ½ (x < 0) and opaque elsewhere. A camera between them looks down at
-/// the floor: where the screen is open the floor gets ρE/π, where it is closed nothing (depth 1,
-/// no indirect light). The shadow rays honour the cut-out.
+/// open where u < ½ (x < 0) and opaque elsewhere. A camera between them looks down at the
+/// floor: where the screen is open the floor gets ρE/π, where it is closed nothing (depth 1, no
+/// indirect light). The shadow rays honour the cut-out. The mask is an alpha channel (0 where
+/// open), or, in an image whose alpha is opaque everywhere, its colour (black where open, as
+/// Lost Empire's `lost_empire-Alpha.png`): the MTL default for scalar maps is luminance.
 #[test]
 fn cutouts_let_shadow_rays_through() {
-    let dir = tempdir();
-    png(&dir.path().join("mask.png"), 8, 8, |x, _| {
-        [255, 255, 255, if x < 4 { 0 } else { 255 }]
+    cutouts_let_shadow_rays_through_with(|x| [255, 255, 255, if x < 4 { 0 } else { 255 }]);
+    cutouts_let_shadow_rays_through_with(|x| {
+        let v = if x < 4 { 0 } else { 255 };
+        [v, v, v, 255]
     });
+}
+
+fn cutouts_let_shadow_rays_through_with(texel: impl Fn(u32) -> [u8; 4]) {
+    let dir = tempdir();
+    png(&dir.path().join("mask.png"), 8, 8, |x, _| texel(x));
     let obj = "mtllib m.mtl\nusemtl floor\nv -9 0 -9\nv 9 0 -9\nv 9 0 9\nv -9 0 9\nf 1 4 3 2\n\
                usemtl screen\nv -1 1 -1\nv 1 1 -1\nv 1 1 1\nv -1 1 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
                f 5/1 8/4 7/3 6/2\n";

@@ -276,8 +276,8 @@ impl Builder {
     }
 
     /// The cut-out mask of an MTL `map_d` argument: the `-imfchan` channel if given, else the
-    /// image's alpha channel if it has one, else its luminance (values as stored, no sRGB
-    /// decoding).
+    /// image's alpha channel if it has one that is not opaque everywhere, else its luminance
+    /// (values as stored, no sRGB decoding).
     pub(super) fn mask(&mut self, dir: &Path, spec: &TextureSpec) -> SceneResult<u32> {
         let path = dir.join(spec.file.replace('\\', "/"));
         let key = (path.clone(), spec.imfchan);
@@ -294,8 +294,10 @@ impl Builder {
             .map_err(|e| err(e.to_string()))?
             .decode()
             .map_err(|e| err(e.to_string()))?;
-        let has_alpha = img.color().has_alpha();
         let rgba = img.into_rgba32f();
+        // An alpha channel that is opaque everywhere masks nothing: the mask is then in the
+        // colour channels (the MTL default for scalar maps, `-imfchan l`).
+        let has_alpha = rgba.pixels().any(|p| p.0[3] < 1.0);
         let (w, h) = (rgba.width() as usize, rgba.height() as usize);
         let coverage: Vec<f32> = rgba
             .pixels()
