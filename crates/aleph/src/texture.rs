@@ -2,14 +2,14 @@
 //! over a footprint (trilinear filtering, Williams 1983, "Pyramidal Parametrics").
 
 use crate::error::{SceneError, SceneResult};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use std::path::Path;
 
 /// An RGB image texture in linear Rec.709 values.
 ///
 /// 8- and 16-bit images are taken as sRGB-encoded and decoded with the sRGB EOTF (IEC
-/// 61966-2-1); floating-point images (Radiance `.hdr`, EXR) are taken as linear. Alpha is
-/// ignored. 8-bit images keep their bytes (3 per texel) and decode them at lookup through a
+/// 61966-2-1); floating-point images (Radiance `.hdr`, EXR) are taken as linear. Alpha is not
+/// looked up; a colour texture's alpha weights its mip levels ([`Texture::with_mip_maps_weighted`]). 8-bit images keep their bytes (3 per texel) and decode them at lookup through a
 /// 256-entry table, as pbrt-v4 and Cycles keep byte textures: a quarter of the memory of linear
 /// `f32` texels (Lost Empire's 2048² atlas takes 12.6 MB instead of 50), with the same values
 /// bit for bit.
@@ -117,7 +117,8 @@ impl Texture {
     /// [`SceneError::Texture`] when the file is missing, unreadable, empty or not a supported
     /// image (PNG, JPEG, Radiance HDR).
     pub fn load(path: &Path) -> SceneResult<Texture> {
-        Ok(Texture::load_with(path, true)?.with_mip_maps())
+        let (texture, coverage) = Texture::load_with(path, true)?;
+        Ok(texture.with_mip_maps_weighted(coverage.as_deref()))
     }
 
     /// Loads an image of non-colour data (height or normal map): 8- and 16-bit values are
@@ -126,10 +127,12 @@ impl Texture {
     /// # Errors
     /// As [`Texture::load`].
     pub fn load_data(path: &Path) -> SceneResult<Texture> {
-        Texture::load_with(path, false)
+        Ok(Texture::load_with(path, false)?.0)
     }
 
-    fn load_with(path: &Path, srgb: bool) -> SceneResult<Texture> {
+    /// The texture, and its alpha channel (row-major, in [0, 1]) if it has one that is not
+    /// opaque everywhere.
+    fn load_with(path: &Path, srgb: bool) -> SceneResult<(Texture, Option<Vec<f32>>)> {
         let err = |message: String| SceneError::Texture {
             path: path.to_path_buf(),
             message,
@@ -142,6 +145,7 @@ impl Texture {
         if img.width() == 0 || img.height() == 0 {
             return Err(err("image has zero size".into()));
         }
+        let coverage = coverage(&img);
         if matches!(
             img.color(),
             image::ColorType::L8
@@ -156,7 +160,7 @@ impl Texture {
                 codes,
                 decode: byte_decode_table(srgb),
             };
-            return Ok(Texture::with_texels(w, h, texels));
+            return Ok((Texture::with_texels(w, h, texels), coverage));
         }
         let linear = matches!(
             img.color(),
@@ -185,7 +189,7 @@ impl Texture {
         if texels.iter().any(|t| !t.is_finite()) {
             return Err(err("image contains NaN or infinite values".into()));
         }
-        Ok(Texture::from_texels(w, h, texels))
+        Ok((Texture::from_texels(w, h, texels), coverage))
     }
 
     /// A texture from row-major linear texels (row 0 at the top).
@@ -213,14 +217,29 @@ impl Texture {
     /// each direction (rounded up), each texel the exact area-weighted mean of the texels of
     /// level k it covers (so every level keeps the texture's mean), down to 1 × 1. Levels of an
     /// 8-bit texture are filtered in linear values and stored as the nearest 8-bit codes of its
-    /// decode table (a third more memory in all); others as linear values. Alpha is ignored
-    /// here as in every lookup: where a cut-out's mask ([`crate::geometry::AlphaMask`]) makes
-    /// holes, the colour of the texels in them takes part in the filtered lookups beside them.
-    pub fn with_mip_maps(mut self) -> Texture {
+    /// decode table (a third more memory in all); others as linear values.
+    pub fn with_mip_maps(self) -> Texture {
+        self.with_mip_maps_weighted(None)
+    }
+
+    /// [`Texture::with_mip_maps`], each level's texels weighted by `coverage` (one alpha in
+    /// [0, 1] per texel of the full-size texture, row-major) where given: a level's texel is
+    /// the mean of the full-size texels under it weighted by their alpha (the premultiplied
+    /// colour's mean over the alpha's), or the plain mean where their alpha is 0 everywhere.
+    /// Where a cut-out ([`crate::geometry::AlphaMask`], MTL `map_d`) makes holes, the surface
+    /// that remains shows only the covered texels, and their colour is what a minified lookup
+    /// should average: with plain means, Lost Empire's leaves (their atlas's holes hold other
+    /// colours) came out 5–18 % darker in 8 × 8-pixel blocks than with point lookups.
+    ///
+    /// # Panics
+    /// If `coverage` is given and does not have one value per texel.
+    pub fn with_mip_maps_weighted(mut self, coverage: Option<&[f32]>) -> Texture {
         use rayon::prelude::*;
+        assert!(coverage.is_none_or(|a| a.len() == self.width * self.height));
         let mut mips: Vec<Level> = Vec::new();
         let (mut w, mut h) = (self.width, self.height);
         let mut colour: Vec<Vec3> = Vec::new();
+        let mut premultiplied: Vec<Vec4> = Vec::new();
         while w > 1 || h > 1 {
             let size = (w.div_ceil(2), h.div_ceil(2));
             colour = if mips.is_empty() {
@@ -228,10 +247,28 @@ impl Texture {
             } else {
                 downsample(&|i| colour[i], (w, h), size)
             };
+            let shown = match coverage {
+                None => colour.clone(),
+                Some(a) => {
+                    premultiplied = if mips.is_empty() {
+                        downsample(&|i| (self.texels.get(i) * a[i]).extend(a[i]), (w, h), size)
+                    } else {
+                        downsample(&|i| premultiplied[i], (w, h), size)
+                    };
+                    let unpremultiply = |(p, c): (&Vec4, &Vec3)| {
+                        if p.w > 0.0 { p.truncate() / p.w } else { *c }
+                    };
+                    premultiplied
+                        .iter()
+                        .zip(&colour)
+                        .map(unpremultiply)
+                        .collect()
+                }
+            };
             let texels = match &self.texels {
-                Texels::Linear(_) => Texels::Linear(colour.clone()),
+                Texels::Linear(_) => Texels::Linear(shown),
                 Texels::Bytes { decode, .. } => Texels::Bytes {
-                    codes: colour
+                    codes: shown
                         .par_iter()
                         .map(|&c| nearest_codes(c, decode))
                         .collect(),
@@ -384,13 +421,17 @@ fn box_weights(n_in: usize, n_out: usize) -> Vec<Vec<(usize, f32)>> {
 /// The texels `get(i)` of a `w × h` level (row-major) box-filtered to `w2 × h2`: each output
 /// texel the area-weighted mean of the input texels under it. Halving an even size is the
 /// plain 2 × 2 mean; other sizes go through [`box_weights`], rows then columns.
-fn downsample(
-    get: &(dyn Fn(usize) -> Vec3 + Sync),
+fn downsample<T>(
+    get: &(dyn Fn(usize) -> T + Sync),
     (w, h): (usize, usize),
     (w2, h2): (usize, usize),
-) -> Vec<Vec3> {
+) -> Vec<T>
+where
+    T: Copy + Default + Send + Sync + std::iter::Sum,
+    T: std::ops::Add<Output = T> + std::ops::Mul<f32, Output = T>,
+{
     use rayon::prelude::*;
-    let mut out = vec![Vec3::ZERO; w2 * h2];
+    let mut out = vec![T::default(); w2 * h2];
     if w == 2 * w2 && h == 2 * h2 {
         out.par_chunks_mut(w2).enumerate().for_each(|(y, line)| {
             let (r0, r1) = (2 * y * w, (2 * y + 1) * w);
@@ -402,7 +443,7 @@ fn downsample(
         return out;
     }
     let (wx, wy) = (box_weights(w, w2), box_weights(h, h2));
-    let mut rows = vec![Vec3::ZERO; w2 * h];
+    let mut rows = vec![T::default(); w2 * h];
     rows.par_chunks_mut(w2).enumerate().for_each(|(y, line)| {
         for (o, ws) in line.iter_mut().zip(&wx) {
             *o = ws.iter().map(|&(i, a)| get(y * w + i) * a).sum();
@@ -414,6 +455,31 @@ fn downsample(
         }
     });
     out
+}
+
+/// The alpha channel of `img` (row-major, in [0, 1]) if it has one that is not opaque
+/// everywhere: what [`Texture::with_mip_maps_weighted`] weighs its levels by.
+fn coverage(img: &image::DynamicImage) -> Option<Vec<f32>> {
+    use image::DynamicImage::*;
+    match img {
+        _ if !img.color().has_alpha() => None,
+        ImageRgba8(b) => b
+            .pixels()
+            .any(|p| p.0[3] < 255)
+            .then(|| b.pixels().map(|p| p.0[3] as f32 / 255.0).collect()),
+        ImageLumaA8(b) => b
+            .pixels()
+            .any(|p| p.0[1] < 255)
+            .then(|| b.pixels().map(|p| p.0[1] as f32 / 255.0).collect()),
+        _ => {
+            let alpha: Vec<f32> = img
+                .to_rgba32f()
+                .pixels()
+                .map(|p| p.0[3].clamp(0.0, 1.0))
+                .collect();
+            alpha.iter().any(|&a| a < 1.0).then_some(alpha)
+        }
+    }
 }
 
 /// The 8-bit codes whose decoded values are nearest to `c`, channel by channel (`decode` is
@@ -574,6 +640,52 @@ mod tests {
     /// below exactly once, odd sizes included), the last is 1 × 1, and each level's texel is
     /// the mean of the texels it covers: for even sizes the plain 2 × 2 mean, computed here
     /// directly.
+    /// An RGBA PNG with opaque red texels beside transparent white ones (and an opaque-white
+    /// corner block): each texel of a level is the mean of the opaque texels under it, or the
+    /// plain mean where none is opaque; an image whose alpha is opaque everywhere has plain means.
+    #[test]
+    fn a_colour_textures_alpha_weighs_its_mip_levels() {
+        let dir = tempfile::tempdir().unwrap();
+        let (holes, opaque) = (dir.path().join("a.png"), dir.path().join("b.png"));
+        let texel = |x: u32, y: u32| match (x < 4 && y < 4, (x + y) % 2 == 0) {
+            (true, _) => image::Rgba([255, 255, 255, 0]),
+            (false, true) => image::Rgba([255, 0, 0, 255]),
+            (false, false) => image::Rgba([255, 255, 255, 0]),
+        };
+        image::RgbaImage::from_fn(8, 8, texel).save(&holes).unwrap();
+        image::RgbaImage::from_fn(8, 8, |x, y| {
+            let mut p = texel(x, y);
+            p.0[3] = 255;
+            p
+        })
+        .save(&opaque)
+        .unwrap();
+        let t = Texture::load(&holes).unwrap();
+        let (red, white) = (Vec3::X, Vec3::ONE);
+        for (k, l) in t.mips.iter().enumerate() {
+            for y in 0..l.height {
+                for x in 0..l.width {
+                    let got = l.texels.get(y * l.width + x);
+                    // The 2^(k+1)-texel block under it; the transparent corner is 4 × 4.
+                    let all_holes = k < 2 && (x + 1) << (k + 1) <= 4 && (y + 1) << (k + 1) <= 4;
+                    let want = if all_holes { white } else { red };
+                    assert!(
+                        (got - want).abs().max_element() < 0.01,
+                        "level {k} ({x}, {y}): {got}"
+                    );
+                }
+            }
+        }
+        let plain = Texture::load(&opaque).unwrap();
+        let mean = plain.mips.last().unwrap().texels.get(0);
+        assert!(
+            (mean - plain.mean()).abs().max_element() < 0.01,
+            "{mean} {}",
+            plain.mean()
+        );
+        assert!(mean.y > 0.5, "opaque white texels take part: {mean}");
+    }
+
     #[test]
     fn mip_levels_are_exact_box_means() {
         for (w, h) in [(16, 16), (13, 7), (1, 9), (64, 3)] {
