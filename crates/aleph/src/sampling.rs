@@ -338,7 +338,7 @@ fn pow2_scale(x: f64) -> f64 {
 /// (pbrt-v4's `PiecewiseConstant2D`).
 ///
 /// Layout: besides each row's [`Distribution1D`], `buckets` holds every row's guide table again
-/// as 16-byte [`Bucket`]s (row-major, `g` a row), each with the CDF values a draw in it needs,
+/// as 16-byte `Bucket`s (row-major, `g` a row), each with the CDF values a draw in it needs,
 /// so that the conditional draw reads one record instead of a guide entry and then the CDF it
 /// points at: on a 1k environment map both miss the last-level cache, one after the other
 /// (`perf`: the two loads were most of the time the renders of Lost Empire and the Mori knob

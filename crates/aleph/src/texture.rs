@@ -117,7 +117,10 @@ impl Texture {
     /// [`SceneError::Texture`] when the file is missing, unreadable, empty or not a supported
     /// image (PNG, JPEG, Radiance HDR).
     pub fn load(path: &Path) -> SceneResult<Texture> {
-        let (texture, coverage) = Texture::load_with(path, true)?;
+        let (mut texture, coverage) = Texture::load_with(path, true)?;
+        if let Some(a) = &coverage {
+            texture.bleed_into_holes(a);
+        }
         Ok(texture.with_mip_maps_weighted(coverage.as_deref()))
     }
 
@@ -228,8 +231,10 @@ impl Texture {
     /// colour's mean over the alpha's), or the plain mean where their alpha is 0 everywhere.
     /// Where a cut-out ([`crate::geometry::AlphaMask`], MTL `map_d`) makes holes, the surface
     /// that remains shows only the covered texels, and their colour is what a minified lookup
-    /// should average: with plain means, Lost Empire's leaves (their atlas's holes hold other
+    /// should average: with plain means, Lost Empire's leaves (their atlas's holes hold dark
     /// colours) came out 5–18 % darker in 8 × 8-pixel blocks than with point lookups.
+    /// [`Texture::load`] also bleeds the covered colours into the holes' first ring
+    /// (`Texture::bleed_into_holes`), for the bilinear lookups at full size.
     ///
     /// # Panics
     /// If `coverage` is given and does not have one value per texel.
@@ -239,30 +244,32 @@ impl Texture {
         let mut mips: Vec<Level> = Vec::new();
         let (mut w, mut h) = (self.width, self.height);
         let mut colour: Vec<Vec3> = Vec::new();
-        let mut premultiplied: Vec<Vec4> = Vec::new();
+        // With alpha, colours weighted by alpha + ε: the plain mean where every alpha is 0, and
+        // within ε / (1/255) = 2.6 × 10⁻⁴ of the alpha-weighted one elsewhere.
+        let mut weighted: Vec<Vec4> = Vec::new();
         while w > 1 || h > 1 {
             let size = (w.div_ceil(2), h.div_ceil(2));
-            colour = if mips.is_empty() {
-                downsample(&|i| self.texels.get(i), (w, h), size)
-            } else {
-                downsample(&|i| colour[i], (w, h), size)
-            };
-            let shown = match coverage {
-                None => colour.clone(),
-                Some(a) => {
-                    premultiplied = if mips.is_empty() {
-                        downsample(&|i| (self.texels.get(i) * a[i]).extend(a[i]), (w, h), size)
+            let first = mips.is_empty();
+            let shown: Vec<Vec3> = match coverage {
+                None => {
+                    colour = if first {
+                        downsample(&|i| self.texels.get(i), (w, h), size)
                     } else {
-                        downsample(&|i| premultiplied[i], (w, h), size)
+                        downsample(&|i| colour[i], (w, h), size)
                     };
-                    let unpremultiply = |(p, c): (&Vec4, &Vec3)| {
-                        if p.w > 0.0 { p.truncate() / p.w } else { *c }
+                    colour.clone()
+                }
+                Some(a) => {
+                    weighted = if first {
+                        let get = |i: usize| {
+                            let k = a[i] + WEIGHT_EPSILON;
+                            (self.texels.get(i) * k).extend(k)
+                        };
+                        downsample(&get, (w, h), size)
+                    } else {
+                        downsample(&|i| weighted[i], (w, h), size)
                     };
-                    premultiplied
-                        .iter()
-                        .zip(&colour)
-                        .map(unpremultiply)
-                        .collect()
+                    weighted.iter().map(|p| p.truncate() / p.w).collect()
                 }
             };
             let texels = match &self.texels {
@@ -284,6 +291,48 @@ impl Texture {
         }
         self.mips = mips;
         self
+    }
+
+    /// Gives each transparent texel (alpha 0 in `coverage`) beside a covered one the
+    /// alpha-weighted mean colour of its covered 8-neighbours (columns and rows wrap, as the
+    /// lookup does): a bilinear lookup on a cut-out surface beside its hole then blends the
+    /// surface's own colours, not the hole's (alpha bleeding). Other texels keep their colour.
+    /// Without it, Lost Empire's leaves, looked up at a point, had dark fringes at their holes,
+    /// up to 6 % of an 8 × 8-pixel block's luminance, and filtered lookups, whose finest level
+    /// is this one, were up to 10 % darker than point lookups in such blocks.
+    fn bleed_into_holes(&mut self, coverage: &[f32]) {
+        use rayon::prelude::*;
+        let (w, h) = (self.width, self.height);
+        let texels = &self.texels;
+        let bled: Vec<(usize, Vec3)> = (0..w * h)
+            .into_par_iter()
+            .filter(|&i| coverage[i] == 0.0)
+            .filter_map(|i| {
+                let (x, y) = (i % w, i / w);
+                let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
+                for (dx, dy) in [
+                    (w - 1, h - 1),
+                    (0, h - 1),
+                    (1, h - 1),
+                    (w - 1, 0),
+                    (1, 0),
+                    (w - 1, 1),
+                    (0, 1),
+                    (1, 1),
+                ] {
+                    let j = (y + dy) % h * w + (x + dx) % w;
+                    sum += texels.get(j) * coverage[j];
+                    weight += coverage[j];
+                }
+                (weight > 0.0).then(|| (i, sum / weight))
+            })
+            .collect();
+        match &mut self.texels {
+            Texels::Linear(t) => bled.iter().for_each(|&(i, c)| t[i] = c),
+            Texels::Bytes { codes, decode } => bled
+                .iter()
+                .for_each(|&(i, c)| codes[i] = nearest_codes(c, decode)),
+        }
     }
 
     /// Width and height in texels.
@@ -456,6 +505,10 @@ where
     });
     out
 }
+
+/// What [`Texture::with_mip_maps_weighted`] adds to every alpha it weighs texels by, so that a
+/// block of transparent texels has their plain mean.
+const WEIGHT_EPSILON: f32 = 1e-6;
 
 /// The alpha channel of `img` (row-major, in [0, 1]) if it has one that is not opaque
 /// everywhere: what [`Texture::with_mip_maps_weighted`] weighs its levels by.
@@ -640,11 +693,13 @@ mod tests {
     /// below exactly once, odd sizes included), the last is 1 × 1, and each level's texel is
     /// the mean of the texels it covers: for even sizes the plain 2 × 2 mean, computed here
     /// directly.
-    /// An RGBA PNG with opaque red texels beside transparent white ones (and an opaque-white
-    /// corner block): each texel of a level is the mean of the opaque texels under it, or the
-    /// plain mean where none is opaque; an image whose alpha is opaque everywhere has plain means.
+    /// An RGBA PNG with opaque red texels beside transparent white ones (and a transparent
+    /// white corner block). A transparent texel beside an opaque one takes their colour (alpha
+    /// bleeding); one with no opaque neighbour keeps its own. Each texel of a level is the mean
+    /// of the opaque texels under it, or the plain mean where none is opaque; an image whose
+    /// alpha is opaque everywhere keeps its colours and has plain means.
     #[test]
-    fn a_colour_textures_alpha_weighs_its_mip_levels() {
+    fn a_colour_textures_alpha_bleeds_into_its_holes_and_weighs_its_mip_levels() {
         let dir = tempfile::tempdir().unwrap();
         let (holes, opaque) = (dir.path().join("a.png"), dir.path().join("b.png"));
         let texel = |x: u32, y: u32| match (x < 4 && y < 4, (x + y) % 2 == 0) {
@@ -662,28 +717,33 @@ mod tests {
         .unwrap();
         let t = Texture::load(&holes).unwrap();
         let (red, white) = (Vec3::X, Vec3::ONE);
+        let near = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 0.01;
+        assert!(near(t.texels.get(4 * 8 + 5), red), "a hole beside red");
+        assert!(near(t.texels.get(8 + 1), white), "a hole among holes");
         for (k, l) in t.mips.iter().enumerate() {
+            let n = 1 << (k + 1);
             for y in 0..l.height {
                 for x in 0..l.width {
                     let got = l.texels.get(y * l.width + x);
-                    // The 2^(k+1)-texel block under it; the transparent corner is 4 × 4.
-                    let all_holes = k < 2 && (x + 1) << (k + 1) <= 4 && (y + 1) << (k + 1) <= 4;
-                    let want = if all_holes { white } else { red };
-                    assert!(
-                        (got - want).abs().max_element() < 0.01,
-                        "level {k} ({x}, {y}): {got}"
-                    );
+                    let under =
+                        (0..n).flat_map(|j| (0..n).map(move |i| (y * n + j) * 8 + x * n + i));
+                    let all_holes = (x + 1) * n <= 4 && (y + 1) * n <= 4;
+                    let want = if all_holes {
+                        under.map(|i| t.texels.get(i)).sum::<Vec3>() / (n * n) as f32
+                    } else {
+                        red
+                    };
+                    assert!(near(got, want), "level {k} ({x}, {y}): {got}, want {want}");
                 }
             }
         }
         let plain = Texture::load(&opaque).unwrap();
-        let mean = plain.mips.last().unwrap().texels.get(0);
         assert!(
-            (mean - plain.mean()).abs().max_element() < 0.01,
-            "{mean} {}",
-            plain.mean()
+            near(plain.texels.get(4 * 8 + 5), white),
+            "opaque: no bleeding"
         );
-        assert!(mean.y > 0.5, "opaque white texels take part: {mean}");
+        let mean = plain.mips.last().unwrap().texels.get(0);
+        assert!(near(mean, plain.mean()), "{mean} {}", plain.mean());
     }
 
     #[test]
