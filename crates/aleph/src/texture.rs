@@ -9,10 +9,11 @@ use std::path::Path;
 ///
 /// 8- and 16-bit images are taken as sRGB-encoded and decoded with the sRGB EOTF (IEC
 /// 61966-2-1); floating-point images (Radiance `.hdr`, EXR) are taken as linear. Alpha is not
-/// looked up; a colour texture's alpha weights its mip levels ([`Texture::with_mip_maps_weighted`]). 8-bit images keep their bytes (3 per texel) and decode them at lookup through a
-/// 256-entry table, as pbrt-v4 and Cycles keep byte textures: a quarter of the memory of linear
-/// `f32` texels (Lost Empire's 2048² atlas takes 12.6 MB instead of 50), with the same values
-/// bit for bit.
+/// looked up; a colour texture's alpha weights its mip levels and bleeds its covered colours
+/// into its holes ([`Texture::with_mip_maps_weighted`]). 8-bit images keep their bytes (3 per
+/// texel) and decode them at lookup through a 256-entry table, as pbrt-v4 and Cycles keep byte
+/// textures: a quarter of the memory of linear `f32` texels (Lost Empire's 2048² atlas takes
+/// 12.6 MB instead of 50), with the same values bit for bit.
 #[derive(Clone, Debug)]
 pub struct Texture {
     width: usize,
