@@ -367,6 +367,15 @@ struct Bucket {
 /// [`Bucket::lo`]'s flag: the bucket is drawn from by the row's own search.
 const SLOW: u32 = 1 << 31;
 
+impl Bucket {
+    /// Which of the bucket's items (0: `lo`, 1: `lo + 1`) a draw of `u` in it picks, or `None`
+    /// if the bucket is [`SLOW`].
+    #[inline]
+    fn pick(&self, u: f32) -> Option<usize> {
+        (self.lo & SLOW == 0).then(|| usize::from(self.cdf[1] <= u))
+    }
+}
+
 impl Distribution1D {
     /// This distribution's guide table as [`Bucket`]s (G of them, G + 1 guide entries).
     fn buckets(&self) -> impl Iterator<Item = Bucket> + '_ {
@@ -424,16 +433,11 @@ impl Distribution2D {
     pub fn sample(&self, u: Vec2) -> Vec2 {
         let (v, _, r) = self.marginal.sample_continuous(u.y);
         let row = &self.rows[r];
-        if (0.0..1.0).contains(&u.x) {
-            // k ≤ g − 1: u · g is exact (g a power of two) and below g.
-            let k = (u.x * self.g as f32) as usize;
-            let b = self.buckets[r * self.g + k];
-            if b.lo & SLOW == 0 {
-                let j = usize::from(b.cdf[1] <= u.x);
-                let i = b.lo as usize + j;
-                let x = point_in_cell(u.x, i, b.cdf[j], b.cdf[j + 1], row.len());
-                return Vec2::new(x, v);
-            }
+        if let Some(b) = self.bucket(r, u.x)
+            && let Some(j) = b.pick(u.x)
+        {
+            let i = b.lo as usize + j;
+            return Vec2::new(point_in_cell(u.x, i, b.cdf[j], b.cdf[j + 1], row.len()), v);
         }
         Vec2::new(row.sample_continuous(u.x).0, v)
     }
@@ -442,10 +446,8 @@ impl Distribution2D {
     /// issued once other work is done finds it in the cache (a hint: nothing else changes).
     #[inline]
     pub fn prefetch(&self, u: Vec2) {
-        if (0.0..1.0).contains(&u.x) {
-            let (r, _) = self.marginal.sample(u.y);
-            let k = (u.x * self.g as f32) as usize;
-            crate::math::prefetch(&self.buckets[r * self.g + k]);
+        if let Some(b) = self.bucket(self.marginal.sample(u.y).0, u.x) {
+            crate::math::prefetch(b);
         }
     }
 
@@ -453,12 +455,19 @@ impl Distribution2D {
     /// it alone (`None` where the draw takes the row's own search).
     #[inline]
     pub fn cell(&self, u: Vec2) -> Option<(usize, usize)> {
-        if !(0.0..1.0).contains(&u.x) {
-            return None;
-        }
-        let (r, _) = self.marginal.sample(u.y);
-        let b = self.buckets[r * self.g + (u.x * self.g as f32) as usize];
-        (b.lo & SLOW == 0).then(|| (r, b.lo as usize + usize::from(b.cdf[1] <= u.x)))
+        let r = self.marginal.sample(u.y).0;
+        let b = self.bucket(r, u.x)?;
+        b.pick(u.x).map(|j| (r, b.lo as usize + j))
+    }
+
+    /// The bucket of row `r` a draw of `u` reads (`None` outside [0, 1), where the row searches
+    /// all of its items).
+    #[inline]
+    fn bucket(&self, r: usize, u: f32) -> Option<&Bucket> {
+        // k ≤ g − 1: u · g is exact (g a power of two) and below g.
+        (0.0..1.0)
+            .contains(&u)
+            .then(|| &self.buckets[r * self.g + (u * self.g as f32) as usize])
     }
 
     /// The density at (u, v) ∈ [0, 1)² of [`Distribution2D::sample`].

@@ -517,14 +517,8 @@ fn coverage(img: &image::DynamicImage) -> Option<Vec<f32>> {
     use image::DynamicImage::*;
     match img {
         _ if !img.color().has_alpha() => None,
-        ImageRgba8(b) => b
-            .pixels()
-            .any(|p| p.0[3] < 255)
-            .then(|| b.pixels().map(|p| p.0[3] as f32 / 255.0).collect()),
-        ImageLumaA8(b) => b
-            .pixels()
-            .any(|p| p.0[1] < 255)
-            .then(|| b.pixels().map(|p| p.0[1] as f32 / 255.0).collect()),
+        ImageRgba8(b) => byte_coverage(b.pixels().map(|p| p.0[3])),
+        ImageLumaA8(b) => byte_coverage(b.pixels().map(|p| p.0[1])),
         _ => {
             let alpha: Vec<f32> = img
                 .to_rgba32f()
@@ -534,6 +528,11 @@ fn coverage(img: &image::DynamicImage) -> Option<Vec<f32>> {
             alpha.iter().any(|&a| a < 1.0).then_some(alpha)
         }
     }
+}
+
+/// [`coverage`] of 8-bit alpha values.
+fn byte_coverage(alpha: impl Iterator<Item = u8> + Clone) -> Option<Vec<f32>> {
+    (alpha.clone().any(|a| a < 255)).then(|| alpha.map(|a| a as f32 / 255.0).collect())
 }
 
 /// The 8-bit codes whose decoded values are nearest to `c`, channel by channel (`decode` is

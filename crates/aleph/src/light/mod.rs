@@ -294,25 +294,22 @@ impl Lights {
         self.n_tris
     }
 
-    /// The environment, if any.
-    pub fn environment(&self) -> Option<&Environment> {
-        self.lights.iter().find_map(|l| match l {
-            Light::Environment(e) => Some(&**e),
-            _ => None,
-        })
-    }
-
-    /// The environment map among the lights at infinity, if any (a constant environment is
-    /// not one), whose sampling tables and texels a path loads ahead of its light samples
-    /// ([`Environment::prefetch_sample`]).
+    /// The environment, if any (a scene has at most one).
     #[inline]
-    pub fn environment_map(&self) -> Option<&Environment> {
+    pub fn environment(&self) -> Option<&Environment> {
         self.lights[self.n_tris..self.n_tris + self.n_infinite]
             .iter()
             .find_map(|l| match l {
-                Light::Environment(e) if e.is_map() => Some(&**e),
+                Light::Environment(e) => Some(&**e),
                 _ => None,
             })
+    }
+
+    /// The environment if it is a map (a constant environment is not), whose sampling tables
+    /// and texels a path loads ahead of its light samples ([`Environment::prefetch_sample`]).
+    #[inline]
+    pub fn environment_map(&self) -> Option<&Environment> {
+        self.environment().filter(|e| e.is_map())
     }
 
     /// The suns.
