@@ -165,6 +165,58 @@ fn no_light() {
     let s = scene_with(d.path(), &toml, &[("t.obj", TRI_OBJ), ("m.mtl", MTL)]);
     let e = fails(d.path(), &s, &[]);
     assert_mentions(&e, &["scene.toml", "no light"]);
+    assert!(!e.contains("Ka"), "no ambient colour to name: {e}");
+}
+
+/// tinyobjloader's Cornell box writes its light's radiance as an ambient colour (`Ka 20 20
+/// 20`), which aleph does not read as emission: the error names the material and both ways
+/// to make it emit, and the scene file's way works.
+#[test]
+fn no_light_names_an_ambient_colour_above_one() {
+    let d = tempdir();
+    let toml = format!("{CAMERA}[[mesh]]\nfile = \"t.obj\"\n");
+    let mtl = "newmtl white\nKa 0.2 0.2 0.2\nKd 0.5 0.5 0.5\nnewmtl lamp\nKa 20 18 16\nKd 1 1 1\n";
+    let obj = format!("{TRI_OBJ}v -1 1 -1\nv 1 1 -1\nv 0 1 1\nusemtl lamp\nf 6 5 4\n");
+    let s = scene_with(d.path(), &toml, &[("t.obj", &obj), ("m.mtl", mtl)]);
+    let e = fails(d.path(), &s, &[]);
+    assert_mentions(
+        &e,
+        &[
+            "scene.toml",
+            "no light",
+            "\"lamp\"",
+            "m.mtl",
+            "Ka 20 18 16",
+            "Ke 20 18 16",
+            "[materials.lamp]",
+            "emission = [20, 18, 16]",
+        ],
+    );
+    assert!(!e.contains("\"white\""), "Ka 0.2 is a reflectance: {e}");
+    let fixed = format!("{toml}[materials.lamp]\nemission = [20, 18, 16]\n");
+    let s = scene_with(d.path(), &fixed, &[("t.obj", &obj), ("m.mtl", mtl)]);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_aleph"))
+        .args([
+            "render",
+            s.to_str().unwrap(),
+            "--sampler",
+            "uniform",
+            "--spp",
+            "1",
+        ])
+        .args([
+            "--resolution",
+            "8x8",
+            "-o",
+            d.path().join("out").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]

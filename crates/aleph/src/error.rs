@@ -73,12 +73,15 @@ pub enum SceneError {
     },
     /// Nothing in the scene emits light.
     #[error(
-        "{}: the scene has no light: no MTL material has a non-zero Ke and no [[light]] emits",
+        "{}: the scene has no light: no MTL material has a non-zero Ke and no [[light]] emits{hint}",
         path.display()
     )]
     NoLights {
         /// The scene file.
         path: PathBuf,
+        /// Empty, or what may have been meant as a light: MTL materials whose `Ka` exceeds 1
+        /// (an emitter's radiance written as ambient colour), and how to make one emit.
+        hint: String,
     },
 }
 

@@ -13,7 +13,7 @@ use crate::geometry::{Cutouts, Geometry, STATIC_INSTANCE, Triangles};
 use crate::light::Lights;
 use crate::material::{ColorSource, Material, MaterialKind};
 use glam::{Mat4, Quat, Vec3};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::obj::{Builder, ObjectFilter};
@@ -64,6 +64,7 @@ impl SceneDescription {
         )
         .ok_or_else(|| SceneError::NoLights {
             path: self.path.clone(),
+            hint: ambient_hint(&b.ambient_above_one),
         })?;
         let time_range = match animation {
             Some(a) => (
@@ -583,4 +584,31 @@ fn build_geometry(
             .or_else(|| e.downcast_ref::<String>().cloned())
             .unwrap_or_else(|| "a panic in the BVH builder".into())
     })
+}
+
+/// The hint a scene without a light gives about MTL materials whose ambient colour exceeds 1
+/// ([`super::obj::Builder::ambient_above_one`]): empty without any.
+fn ambient_hint(found: &[(String, [f32; 3], PathBuf)]) -> String {
+    let Some((name, ka, mtl)) = found.first() else {
+        return String::new();
+    };
+    let others = match found.len() {
+        1 => String::new(),
+        n => format!(" (and {} more)", n - 1),
+    };
+    format!(
+        ". Material \"{name}\" of {} gives Ka {} {} {}{others}, above 1, which no reflectance \
+         is: if it is meant to emit, write `Ke {} {} {}` there, or add `[materials.{name}]` \
+         with `emission = [{}, {}, {}]` to the scene file (aleph reads emission from Ke only)",
+        mtl.display(),
+        ka[0],
+        ka[1],
+        ka[2],
+        ka[0],
+        ka[1],
+        ka[2],
+        ka[0],
+        ka[1],
+        ka[2]
+    )
 }

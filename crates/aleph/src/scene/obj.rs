@@ -253,6 +253,11 @@ pub(super) struct Builder {
     /// Material names the scene file overrides (`[materials.NAME]`): a `usemtl` stub of one of
     /// these is what the user asked for, not worth a warning.
     pub(super) overridden: std::collections::HashSet<String>,
+    /// MTL materials whose ambient colour `Ka` exceeds 1 in a channel, with it and their MTL
+    /// file: no reflectance does, and some files (tinyobjloader's Cornell box, for one) write
+    /// an emitter's radiance there. aleph reads emission from `Ke` only; a scene without a
+    /// light names these in its error.
+    pub(super) ambient_above_one: Vec<(String, [f32; 3], PathBuf)>,
 }
 
 impl Builder {
@@ -536,6 +541,12 @@ impl Builder {
             );
         }
         warn_ignored_mtl(&mtl_path, &materials);
+        for m in &materials {
+            if let Some(ka) = m.ambient.filter(|ka| ka.iter().any(|&c| c > 1.0)) {
+                self.ambient_above_one
+                    .push((m.name.clone(), ka, mtl_path.clone()));
+            }
+        }
         let mut local_to_global = Vec::with_capacity(materials.len());
         for m in &materials {
             let mat = self.convert_material(m, &mtl_dir, &mtl_path)?;
