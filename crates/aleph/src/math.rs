@@ -99,6 +99,22 @@ pub fn robust_normalize(v: Vec3) -> Vec3 {
     (v / m).normalize_or_zero()
 }
 
+/// Asks the CPU to start loading the cache line holding `x` into every cache level (x86-64's
+/// `prefetcht0`; nothing elsewhere). Only a hint: nothing observable changes, only when a later
+/// read of `x` finds it.
+#[inline]
+pub(crate) fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is only a hint, and its address is a live reference's.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+            (x as *const T).cast(),
+        )
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -131,20 +147,4 @@ mod tests {
         // Total internal reflection leaving glass at a grazing angle.
         assert!(refract(Vec3::new(0.9, 0.0, 0.4359).normalize(), n, 1.0 / 1.5).is_none());
     }
-}
-
-/// Asks the CPU to start loading the cache line holding `x` into every cache level (x86-64's
-/// `prefetcht0`; nothing elsewhere). Only a hint: nothing observable changes, only when a later
-/// read of `x` finds it.
-#[inline]
-pub(crate) fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch is only a hint, and its address is a live reference's.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-            (x as *const T).cast(),
-        )
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
 }
