@@ -36,6 +36,34 @@ fn cornell_box_materials_and_light() {
     }
 }
 
+/// The Cornell box in millimetres (tinyobjloader's): its light's emission comes from the scene
+/// file's override (the MTL writes it as `Ka`), its walls and blocks are white of reflectance 1,
+/// and the back wall stands at z = 559.2 mm.
+#[test]
+fn cornell_box_in_original_units_emits_through_the_override() {
+    let s = load_small("scenes/cornell-original/scene.toml");
+    assert_eq!(s.geometry.len(), 36);
+    let light = material(&s, "light");
+    assert!(
+        matches!(light.emission, Some(ColorSource::Constant(c)) if c.to_array() == [20.0; 3])
+    );
+    let white = material(&s, "white");
+    assert_eq!(white.kind, MaterialKind::Diffuse);
+    assert!(matches!(white.kd, ColorSource::Constant(c) if c.to_array() == [1.0; 3]));
+    assert_eq!(s.lights.len(), 2);
+    let mut z_max = f32::MIN;
+    for i in 0..s.geometry.len() {
+        let t = s.geometry.tris.get(i);
+        for p in t.p {
+            z_max = z_max.max(p.z);
+        }
+        if t.light != u32::MAX {
+            assert!(t.geometric_normal().y < -0.99, "the light faces down");
+        }
+    }
+    assert_eq!(z_max, 559.2);
+}
+
 #[test]
 fn holodeck_textures_and_emissive_screens() {
     let s = load_small("scenes/holodeck/scene.toml");
