@@ -44,9 +44,7 @@ fn cornell_box_in_original_units_emits_through_the_override() {
     let s = load_small("scenes/cornell-original/scene.toml");
     assert_eq!(s.geometry.len(), 36);
     let light = material(&s, "light");
-    assert!(
-        matches!(light.emission, Some(ColorSource::Constant(c)) if c.to_array() == [20.0; 3])
-    );
+    assert!(matches!(light.emission, Some(ColorSource::Constant(c)) if c.to_array() == [20.0; 3]));
     let white = material(&s, "white");
     assert_eq!(white.kind, MaterialKind::Diffuse);
     assert!(matches!(white.kd, ColorSource::Constant(c) if c.to_array() == [1.0; 3]));
