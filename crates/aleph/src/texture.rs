@@ -134,8 +134,8 @@ impl Texture {
         Ok(Texture::load_with(path, false)?.0)
     }
 
-    /// The texture, and its alpha channel (row-major, in [0, 1]) if it has one that is not
-    /// opaque everywhere.
+    /// The texture, and for a colour texture (`srgb`) its alpha channel (row-major, in [0, 1])
+    /// if it has one that is not opaque everywhere.
     fn load_with(path: &Path, srgb: bool) -> SceneResult<(Texture, Option<Vec<f32>>)> {
         let err = |message: String| SceneError::Texture {
             path: path.to_path_buf(),
@@ -149,7 +149,8 @@ impl Texture {
         if img.width() == 0 || img.height() == 0 {
             return Err(err("image has zero size".into()));
         }
-        let coverage = coverage(&img);
+        // Only a colour texture's alpha is used ([`Texture::load`]); data textures skip it.
+        let coverage = if srgb { coverage(&img) } else { None };
         if matches!(
             img.color(),
             image::ColorType::L8
@@ -689,10 +690,6 @@ mod tests {
             .collect()
     }
 
-    /// Every level keeps the texture's mean (the box filter covers each texel of the level
-    /// below exactly once, odd sizes included), the last is 1 × 1, and each level's texel is
-    /// the mean of the texels it covers: for even sizes the plain 2 × 2 mean, computed here
-    /// directly.
     /// An RGBA PNG with opaque red texels beside transparent white ones (and a transparent
     /// white corner block). A transparent texel beside an opaque one takes their colour (alpha
     /// bleeding); one with no opaque neighbour keeps its own. Each texel of a level is the mean
@@ -746,6 +743,10 @@ mod tests {
         assert!(near(mean, plain.mean()), "{mean} {}", plain.mean());
     }
 
+    /// Every level keeps the texture's mean (the box filter covers each texel of the level
+    /// below exactly once, odd sizes included), the last is 1 × 1, and each level's texel is
+    /// the mean of the texels it covers: for even sizes the plain 2 × 2 mean, computed here
+    /// directly.
     #[test]
     fn mip_levels_are_exact_box_means() {
         for (w, h) in [(16, 16), (13, 7), (1, 9), (64, 3)] {

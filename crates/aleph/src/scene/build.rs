@@ -596,19 +596,11 @@ fn ambient_hint(found: &[(String, [f32; 3], PathBuf)]) -> String {
         1 => String::new(),
         n => format!(" (and {} more)", n - 1),
     };
+    let [r, g, b] = *ka;
     format!(
-        ". Material \"{name}\" of {} gives Ka {} {} {}{others}, above 1, which no reflectance \
-         is: if it is meant to emit, write `Ke {} {} {}` there, or add `[materials.{name}]` \
-         with `emission = [{}, {}, {}]` to the scene file (aleph reads emission from Ke only)",
-        mtl.display(),
-        ka[0],
-        ka[1],
-        ka[2],
-        ka[0],
-        ka[1],
-        ka[2],
-        ka[0],
-        ka[1],
-        ka[2]
+        ". Material \"{name}\" of {} gives Ka {r} {g} {b}{others}, above 1, which no reflectance \
+         is: if it is meant to emit, write `Ke {r} {g} {b}` there, or add `[materials.{name}]` \
+         with `emission = [{r}, {g}, {b}]` to the scene file (aleph reads emission from Ke only)",
+        mtl.display()
     )
 }
