@@ -659,19 +659,19 @@ fn a_budget_lifts_every_noisy_pixel_to_three_quarters_of_it() {
 }
 
 /// The stop's floor at a mean of `mean` spp: the largest power of two, or three quarters of
-/// one, not above three quarters of it (`STOP_FLOOR_SHARE`).
+/// one, not above it (`STOP_FLOOR_SHARE` = 1).
 fn stop_floor(mean: f64) -> u32 {
     (0..20)
         .flat_map(|k| [1u32 << k, 3u32 << k >> 2])
-        .filter(|&t| t >= 1 && t as f64 <= mean * 0.75)
+        .filter(|&t| t >= 1 && t as f64 <= mean)
         .max()
         .unwrap()
 }
 
 #[test]
-fn the_default_stop_lifts_every_noisy_pixel_to_three_quarters_of_its_mean() {
-    // Without a budget the stop keeps a floor of three quarters of the mean spp (rounded down
-    // to a power of two or three quarters of one): a pixel the model calls converged early, but whose
+fn the_default_stop_lifts_every_noisy_pixel_to_its_mean() {
+    // Without a budget the stop keeps a floor of the mean spp (rounded down to a power of two
+    // or three quarters of one): a pixel the model calls converged early, but whose
     // noise the judges see (the holodeck's saturated door), is not left at the first pass's
     // count. Only pixels with no noise at all (the light, the black frame) stay under it.
     // (64 × 48: at 40 × 32 the stop converges at a mean under 48 spp, where the floor would
@@ -701,7 +701,7 @@ fn the_default_stop_lifts_every_noisy_pixel_to_three_quarters_of_its_mean() {
 #[test]
 fn a_converged_stop_spends_its_last_pass_on_the_floor_alone() {
     // Once the converged fraction is reached, the stop's only further pass lifts the pixels
-    // left under its floor (three quarters of the mean spp, rounded down to a stratified total);
+    // left under its floor (the mean spp, rounded down to a stratified total);
     // the few pixels still above threshold are not doubled again, nor their neighbours. Each
     // pass's film is recorded through the preview's hook and each judgement's converged
     // fraction through the progress reports; at 64 × 48 the box converges with pixels under
