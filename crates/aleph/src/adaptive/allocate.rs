@@ -130,26 +130,26 @@ pub(crate) const FLOOR_SHARE: f64 = 0.75;
 /// 1.30 → 1.33 / 1.25×. Three quarters gained more FLIP mean on the holodeck and the box but
 /// lost JOD on the Mori knob (1.13 / 1.15 / 1.26×) and the box graded brighter (1.95×).
 ///
-/// The whole mean since 2026-11-29 (the largest stratified total not above it), re-measured
-/// with the stop at 80 % on six stills (one seed each, `aleph speedup … --arms uniform
-/// --stop`, uniform spp at the stop's score over the stop's: FLIP mean / p99 as displayed,
-/// the same at −2 EV, then JOD), half → three quarters → the whole mean: the Cornell box in
-/// its original units (`scenes/cornell-original`, 256²; 428.0 → 442.5 → 494.2 spp) 0.82 /
-/// 0.92, 0.82 / 0.75, 1.25 → 0.86 / 1.01, 0.85 / 0.82, 1.29 → 0.91 / 1.16, 0.90 / 0.98, 1.32×;
-/// Cornell box 256² (141.1 → 149.3 → 162.6) 0.92 / 1.28, 0.90 / 1.19, 1.49 → 0.96 / 1.27, 0.94
-/// / 1.23, 1.44 → 1.00 / 1.22, 0.98 / 1.21, 1.36×; sunset knob 256×192 (75.7 → 76.4 → 79.0)
-/// 0.90 / 1.07, 0.90 / 1.04, 1.15 → 0.92 / 1.13, 0.92 / 1.06, 1.15 → 0.97 / 1.18, 0.96 / 1.11,
-/// 1.19×; studio knob 256×170 (19.8 → 20.5 → 21.6) 1.01 / 1.82, 1.01 / 1.82, 1.26 → 1.02 /
-/// 1.76, 0.98 / 1.76, 1.27 → 1.02 / 1.67, 1.02 / 1.67, 1.25×; Lost Empire 256×160 (35.9 → 38.1 → 40.7) 1.03 / 0.92, 1.03 / 1.00, 1.23 → 1.00 /
-/// 0.94, 1.00 / 0.97, 1.18 → 1.01 / 0.96, 1.01 / 1.01, 1.13×; holodeck 240×160 (383.6 → 433.1
-/// → 504.7) FLIP mean 0.94 / 0.89 → 1.06 / 1.00 → 1.12 / 1.06×, p99 at −2 EV 2.16 → 2.08 →
-/// 1.82×, p99 as displayed and JOD beyond the sweep (over 2×). Scores under 1× over the six
-/// (seven a still, ±2 EV): 16 → 13 → 9, the worst 0.75 → 0.82 → 0.90× (docs/benchmarks.md,
-/// "The default stop on a scene nothing was tuned on"). The half-buffer difference that ranks
-/// a pixel is one noisy draw of its error: a pass doubles whichever pixels draw high, and the
-/// pixels it leaves behind cost FLIP's mean more than the doubled ones return. With the floor
-/// at the mean, the stop is a uniform render that grows while the model sees noise, with the
-/// pixels still above threshold given more; the top-end gains (p99, JOD) shrink a little.
+/// The whole mean since 2026-11-29 (the largest stratified total not above it), re-measured with
+/// the stop at 80 % on six stills (one seed each, `aleph speedup … --arms uniform --stop`, uniform
+/// spp at the stop's score over the stop's: FLIP mean / p99 as displayed, the same at −2 EV, then
+/// JOD), half → three quarters → the whole mean: the Cornell box in its original units
+/// (`scenes/cornell-original`, 256²; 428.0 → 442.5 → 494.2 spp) 0.82 / 0.92, 0.82 / 0.75, 1.25 →
+/// 0.86 / 1.01, 0.85 / 0.82, 1.29 → 0.91 / 1.16, 0.90 / 0.98, 1.32×; Cornell box 256² (141.1 →
+/// 149.3 → 162.6) 0.92 / 1.28, 0.90 / 1.19, 1.49 → 0.96 / 1.27, 0.94 / 1.23, 1.44 → 1.00 / 1.22,
+/// 0.98 / 1.21, 1.36×; sunset knob 256×192 (75.7 → 76.4 → 79.0) 0.90 / 1.07, 0.90 / 1.04, 1.15 →
+/// 0.92 / 1.13, 0.92 / 1.06, 1.15 → 0.97 / 1.18, 0.96 / 1.11, 1.19×; studio knob 256×170 (19.8 →
+/// 20.5 → 21.6) 1.01 / 1.82, 1.01 / 1.82, 1.26 → 1.02 / 1.76, 0.98 / 1.76, 1.27 → 1.02 / 1.67, 1.02
+/// / 1.67, 1.25×; Lost Empire 256×160 (35.9 → 38.1 → 40.7) 1.03 / 0.92, 1.03 / 1.00, 1.23 → 1.00 /
+/// 0.94, 1.00 / 0.97, 1.18 → 1.01 / 0.96, 1.01 / 1.01, 1.13×; holodeck 240×160 (383.6 → 433.1 →
+/// 504.7) FLIP mean 0.94 / 0.89 → 1.06 / 1.00 → 1.12 / 1.06×, p99 at −2 EV 2.16 → 2.08 → 1.82×, p99
+/// as displayed and JOD beyond the sweep (over 2×). Scores under 1× over the six (seven a still, ±2
+/// EV): 16 → 13 → 9, the worst 0.75 → 0.82 → 0.90× (docs/benchmarks.md, "The default stop on a
+/// scene nothing was tuned on"). The half-buffer difference that ranks a pixel is one noisy draw of
+/// its error: a pass doubles whichever pixels draw high, and the pixels it leaves behind cost
+/// FLIP's mean more than the doubled ones return. With the floor at the mean, the stop is a uniform
+/// render that grows while the model sees noise, with the pixels still above threshold given more;
+/// the top-end gains (p99, JOD) shrink a little.
 pub(crate) const STOP_FLOOR_SHARE: f64 = 1.0;
 
 /// Under a sample budget B no pixel gets more than BUDGET_CAP_SHARE · B samples (rounded down
