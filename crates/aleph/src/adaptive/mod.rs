@@ -1221,7 +1221,7 @@ fn unjudged(
 }
 
 /// The perceptual sampler's floor, rounded down to a stratified total: under a budget B,
-/// [`allocate::FLOOR_SHARE`] · B; without one, [`allocate::STOP_FLOOR_SHARE`] of the region's
+/// [`allocate::FLOOR_SHARE`] · B; without one, [`allocate::stop_floor_share`] of the region's
 /// current mean spp. `None` for the variance sampler.
 fn pixel_floor(s: &AdaptiveSettings, st: &LoopState) -> Option<u32> {
     if s.criterion != Criterion::Perceptual {
@@ -1229,7 +1229,10 @@ fn pixel_floor(s: &AdaptiveSettings, st: &LoopState) -> Option<u32> {
     }
     let target = match s.budget_spp {
         Some(b) => allocate::FLOOR_SHARE * b,
-        None => allocate::STOP_FLOOR_SHARE * st.region_samples() as f64 / st.region.len() as f64,
+        None => {
+            let share = allocate::stop_floor_share(s.denoise, s.converged_fraction);
+            share * st.region_samples() as f64 / st.region.len() as f64
+        }
     };
     Some(allocate::stratified_floor(target))
 }
