@@ -142,6 +142,100 @@ struct PointContext<'a> {
     v_retinal: Option<&'a [f32]>,
 }
 
+/// The cells of one level's grid that the image's pixels read, directly (level 1, by
+/// [`ThresholdMapper::finish`]'s bilinear lookup) or through the coarse-to-fine upsampling
+/// ([`upsample2_add`]): columns `x.0..x.1`, rows `y.0..y.1`. The padded canvas around the
+/// image (five times its area at 256 × 170) is there for the filters' wrap-around; evaluating
+/// the bands' sums only here gives the image the same values bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Window {
+    x: (usize, usize),
+    y: (usize, usize),
+}
+
+impl Window {
+    /// Columns and rows.
+    fn size(self) -> (usize, usize) {
+        (self.x.1 - self.x.0, self.y.1 - self.y.0)
+    }
+
+    /// The window on the grid one level coarser (`w × h` cells): this window's cells halved,
+    /// one cell more on each side for the bilinear taps, clamped to the grid.
+    fn coarser(self, w: usize, h: usize) -> Window {
+        let half = |(a, b): (usize, usize), n: usize| {
+            ((a / 2).saturating_sub(1), (b.div_ceil(2) + 1).min(n))
+        };
+        Window {
+            x: half(self.x, w),
+            y: half(self.y, h),
+        }
+    }
+}
+
+/// The bands' sums on one level's `w × h` grid, kept for the cells of `win` only (row-major
+/// within it); [`Cells::bilinear`] reads them at grid coordinates.
+struct Cells {
+    data: Vec<[f32; NSUM]>,
+    win: Window,
+    w: usize,
+    h: usize,
+}
+
+impl Cells {
+    /// Zero sums on the cells of `win` of a `w × h` grid.
+    fn zeros(win: Window, w: usize, h: usize) -> Cells {
+        let (ww, wh) = win.size();
+        Cells {
+            data: vec![[0f32; NSUM]; ww * wh],
+            win,
+            w,
+            h,
+        }
+    }
+
+    /// The window's rows in parallel: (grid row y, its cells from column `win.x.0`).
+    fn par_rows_mut(
+        &mut self,
+    ) -> impl IndexedParallelIterator<Item = (usize, &mut [[f32; NSUM]])> + '_ {
+        let (ww, y0) = (self.win.size().0, self.win.y.0);
+        self.data
+            .par_chunks_mut(ww)
+            .enumerate()
+            .map(move |(dy, row)| (y0 + dy, row))
+    }
+
+    /// Bilinear interpolation at grid coordinates (x, y) (cell i centred at i), clamped to the
+    /// grid. Every cell it reads lies in the window (the windows are nested so, [`Window`]).
+    #[inline(always)]
+    fn bilinear(&self, x: f32, y: f32) -> [f32; NSUM] {
+        let ((x0, x1), fx) = taps(x, self.w);
+        let ((y0, y1), fy) = taps(y, self.h);
+        let ww = self.win.size().0;
+        let at = |x: usize, y: usize| {
+            debug_assert!((self.win.x.0..self.win.x.1).contains(&x));
+            debug_assert!((self.win.y.0..self.win.y.1).contains(&y));
+            self.data[(y - self.win.y.0) * ww + (x - self.win.x.0)]
+        };
+        let (a, b, c, d) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
+        let mut out = [0f32; NSUM];
+        for k in 0..NSUM {
+            let top = a[k] + fx * (b[k] - a[k]);
+            let bot = c[k] + fx * (d[k] - c[k]);
+            out[k] = top + fy * (bot - top);
+        }
+        out
+    }
+}
+
+/// The two cells a bilinear lookup at coordinate `x` reads on an axis of `n` cells (clamped to
+/// it), and the weight of the second.
+#[inline(always)]
+fn taps(x: f32, n: usize) -> ((usize, usize), f32) {
+    let x = x.clamp(0.0, (n - 1) as f32);
+    let x0 = x as usize;
+    ((x0, (x0 + 1).min(n - 1)), x - x0 as f32)
+}
+
 impl PointContext<'_> {
     /// Retinal velocity of the image pixel under full-canvas coordinates.
     #[inline(always)]
@@ -609,6 +703,21 @@ impl ThresholdMapper {
         }
     }
 
+    /// Each level's [`Window`]: the image's own pixels on the full canvas (level 0), then each
+    /// coarser level's from the one before.
+    fn windows(&self) -> Vec<Window> {
+        let pad = &self.pad;
+        let mut windows = vec![Window {
+            x: (pad.x0, pad.x0 + self.width),
+            y: (pad.y0, pad.y0 + self.height),
+        }];
+        for lv in &self.levels[1..] {
+            let last = *windows.last().expect("level 0");
+            windows.push(last.coarser(lv.fft.width(), lv.fft.height()));
+        }
+        windows
+    }
+
     /// Steps 2–5: the bands' sums (w, wE, wM, wEM, noise) per scale on the half-resolution
     /// grid (d = 2; the local amplitude is pooled over at least a period anyway), bands
     /// synthesised once on their own grids and accumulated coarse to fine.
@@ -620,10 +729,11 @@ impl ThresholdMapper {
         ctx: &PointContext,
         scales: &[f32],
         shares: &[f32],
-    ) -> Vec<Vec<[f32; NSUM]>> {
+    ) -> Vec<Cells> {
         let lv2 = &self.levels[1];
         let (w2, h2) = (lv2.fft.width(), lv2.fft.height());
-        let mut acc: Vec<Option<Vec<[f32; NSUM]>>> = vec![None; scales.len()];
+        let windows = self.windows();
+        let mut acc: Vec<Option<Cells>> = (0..scales.len()).map(|_| None).collect();
         for (band, &share) in self.bands.iter().zip(shares).skip(2).rev() {
             let lv = &self.levels[band.level];
             let (lw, lh) = (lv.fft.width(), lv.fft.height());
@@ -631,18 +741,19 @@ impl ThresholdMapper {
             let lp = self.synthesize(spec, band.level, band.lowpass.as_ref().expect("k ≥ 2"));
             let amp = local_amplitude(&b, lw, lh, band.blur_radius);
             for ((a, &k), slot) in adapt.iter().zip(scales).zip(acc.iter_mut()) {
-                let mut sums = self.eval_band(band, share, band.level, &amp, &lp, a, k, ctx);
+                let point = (band.level, windows[band.level]);
+                let mut sums = self.eval_band(band, share, point, &amp, &lp, a, k, ctx);
                 if let Some(coarse) = slot {
-                    upsample2_add(coarse, lw / 2, lh / 2, &mut sums, lw);
+                    upsample2_add(coarse, &mut sums);
                 }
                 *slot = Some(sums);
             }
         }
         // Bands 0 and 1: synthesised at full resolution, their energy and low-pass (by
         // subtraction) averaged over 2×2 blocks onto the d = 2 grid.
-        let mut acc2: Vec<Vec<[f32; NSUM]>> = acc
+        let mut acc2: Vec<Cells> = acc
             .into_iter()
-            .map(|a| a.unwrap_or_else(|| vec![[0f32; NSUM]; w2 * h2]))
+            .map(|a| a.unwrap_or_else(|| Cells::zeros(windows[1], w2, h2)))
             .collect();
         let (pw, ph) = (self.pad.padded_width, self.pad.padded_height);
         let mut lowpass = canvas;
@@ -655,10 +766,11 @@ impl ThresholdMapper {
             let amp = decimate2(&local_amplitude(&b, pw, ph, band.blur_radius), pw, ph);
             let lp = decimate2(&lowpass, pw, ph);
             for ((a, &k), total) in adapt.iter().zip(scales).zip(acc2.iter_mut()) {
-                let sums = self.eval_band(band, share, 1, &amp, &lp, a, k, ctx);
+                let sums = self.eval_band(band, share, (1, windows[1]), &amp, &lp, a, k, ctx);
                 total
+                    .data
                     .par_iter_mut()
-                    .zip(sums.par_iter())
+                    .zip(sums.data.par_iter())
                     .for_each(|(t, s)| {
                         for j in 0..NSUM {
                             t[j] += s[j];
@@ -669,26 +781,27 @@ impl ThresholdMapper {
         acc2
     }
 
-    /// One band's contributions on `level`'s grid for the image scaled by `k` (amplitude and
-    /// low-pass of the unscaled image), with the error's power share `share` in the band.
+    /// One band's contributions on `level`'s grid, in the cells of `win`, for
+    /// the image scaled by `k` (amplitude and low-pass of the unscaled image), with the error's
+    /// power share `share` in the band.
     #[allow(clippy::too_many_arguments)]
     fn eval_band(
         &self,
         band: &Band,
         share: f32,
-        level: usize,
+        (level, win): (usize, Window),
         amp: &[f32],
         lp: &[f32],
         adapt: &Adaptation,
         k: f32,
         ctx: &PointContext,
-    ) -> Vec<[f32; NSUM]> {
+    ) -> Cells {
         let lv = &self.levels[level];
         let (lw, d) = (lv.fft.width(), lv.d as f32);
-        let mut sums = vec![[0f32; NSUM]; amp.len()];
-        sums.par_chunks_mut(lw).enumerate().for_each(|(y, row)| {
+        let mut sums = Cells::zeros(win, lw, lv.fft.height());
+        sums.par_rows_mut().for_each(|(y, row)| {
             let yf = (y as f32 + 0.5) * d;
-            for (x, o) in row.iter_mut().enumerate() {
+            for (o, x) in row.iter_mut().zip(win.x.0..) {
                 let i = y * lw + x;
                 let xf = (x as f32 + 0.5) * d;
                 let la = self.adapt_at(adapt, xf, yf);
@@ -712,11 +825,9 @@ impl ThresholdMapper {
 
     /// Per image pixel: adaptation, the bands' sums interpolated from the d = 2 grid, and the
     /// map made from them.
-    fn finish(&self, adapt: &Adaptation, acc2: &[[f32; NSUM]], ctx: &PointContext) -> ThresholdMap {
+    fn finish(&self, adapt: &Adaptation, acc2: &Cells, ctx: &PointContext) -> ThresholdMap {
         let (w, h) = (ctx.width, ctx.height);
         let pad = &ctx.pad;
-        let lv2 = &self.levels[1];
-        let (w2, h2) = (lv2.fft.width(), lv2.fft.height());
         let n = w * h;
         let mut adaptation = vec![0f32; n];
         let mut sum = vec![[0f32; NSUM]; n];
@@ -729,7 +840,7 @@ impl ThresholdMapper {
                 for x in 0..w {
                     let xf = (pad.x0 + x) as f32 + 0.5;
                     ra[x] = self.adapt_at(adapt, xf, yf);
-                    rs[x] = bilinear_n(acc2, w2, h2, xf / 2.0 - 0.5, yf / 2.0 - 0.5);
+                    rs[x] = acc2.bilinear(xf / 2.0 - 0.5, yf / 2.0 - 0.5);
                 }
             });
 
@@ -867,36 +978,13 @@ fn bilinear(img: &[f32], w: usize, h: usize, x: f32, y: f32) -> f32 {
     a * (1.0 - fy) + b * fy
 }
 
-/// Bilinear interpolation of `NSUM` interleaved channels (the per-band sums of
-/// [`ThresholdMapper::compute`]), clamped to the image.
-#[inline(always)]
-fn bilinear_n(img: &[[f32; NSUM]], w: usize, h: usize, x: f32, y: f32) -> [f32; NSUM] {
-    let x = x.clamp(0.0, (w - 1) as f32);
-    let y = y.clamp(0.0, (h - 1) as f32);
-    let (x0, y0) = (x as usize, y as usize);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-    let (a, b, c, d) = (
-        img[y0 * w + x0],
-        img[y0 * w + x1],
-        img[y1 * w + x0],
-        img[y1 * w + x1],
-    );
-    let mut out = [0f32; NSUM];
-    for k in 0..NSUM {
-        let top = a[k] + fx * (b[k] - a[k]);
-        let bot = c[k] + fx * (d[k] - c[k]);
-        out[k] = top + fy * (bot - top);
-    }
-    out
-}
-
-/// Adds the 2× bilinear upsampling of `src` (`sw × sh`) to `dst` (width `dw` = 2 sw).
-fn upsample2_add(src: &[[f32; NSUM]], sw: usize, sh: usize, dst: &mut [[f32; NSUM]], dw: usize) {
-    dst.par_chunks_mut(dw).enumerate().for_each(|(y, row)| {
+/// Adds the 2× bilinear upsampling of `src` (the grid one level coarser) to `dst`.
+fn upsample2_add(src: &Cells, dst: &mut Cells) {
+    let x0 = dst.win.x.0;
+    dst.par_rows_mut().for_each(|(y, row)| {
         let sy = y as f32 / 2.0 - 0.25;
-        for (x, o) in row.iter_mut().enumerate() {
-            let v = bilinear_n(src, sw, sh, x as f32 / 2.0 - 0.25, sy);
+        for (o, x) in row.iter_mut().zip(x0..) {
+            let v = src.bilinear(x as f32 / 2.0 - 0.25, sy);
             for k in 0..NSUM {
                 o[k] += v[k];
             }

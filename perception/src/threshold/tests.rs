@@ -470,3 +470,62 @@ fn blotchy_error_is_seen_at_a_lower_contrast_than_white_noise() {
             .is_err()
     );
 }
+
+/// The bands' sums are evaluated only in each level's window (`Window`): every cell that an
+/// image pixel's lookup on the d = 2 grid reads (as `finish` does), and every cell that the
+/// upsampling of a level's window reads one level coarser (as `upsample2_add` does), must lie
+/// in the window of its level, or the map would read a sum never computed. Checked on image
+/// sizes odd and even, wide and tall, where the windows touch the canvas edge and where not.
+#[test]
+fn every_cell_the_image_reads_lies_in_its_levels_window() {
+    let inside = |w: Window, (x, y): (usize, usize)| {
+        (w.x.0..w.x.1).contains(&x) && (w.y.0..w.y.1).contains(&y)
+    };
+    for (w, h) in [(256, 170), (97, 61), (33, 300), (5, 3), (512, 512), (1, 1)] {
+        let m = default_mapper(w, h);
+        let windows = m.windows();
+        let pad = &m.pad;
+        let lv1 = &m.levels[1];
+        for y in 0..h {
+            for x in 0..w {
+                let xf = (pad.x0 + x) as f32 + 0.5;
+                let yf = (pad.y0 + y) as f32 + 0.5;
+                let ((x0, x1), _) = taps(xf / 2.0 - 0.5, lv1.fft.width());
+                let ((y0, y1), _) = taps(yf / 2.0 - 0.5, lv1.fft.height());
+                for cell in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
+                    assert!(
+                        inside(windows[1], cell),
+                        "{w}×{h}: pixel ({x}, {y}) reads {cell:?}"
+                    );
+                }
+            }
+        }
+        for l in 1..m.levels.len() - 1 {
+            let coarse = &m.levels[l + 1];
+            let fine = windows[l];
+            for y in fine.y.0..fine.y.1 {
+                for x in fine.x.0..fine.x.1 {
+                    let ((x0, x1), _) = taps(x as f32 / 2.0 - 0.25, coarse.fft.width());
+                    let ((y0, y1), _) = taps(y as f32 / 2.0 - 0.25, coarse.fft.height());
+                    for cell in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
+                        assert!(
+                            inside(windows[l + 1], cell),
+                            "{w}×{h}: level {l} cell ({x}, {y}) reads {cell:?} on level {}",
+                            l + 1
+                        );
+                    }
+                }
+            }
+        }
+        // The windows are what they save: at 256 × 170 the d = 2 grid's window is under a
+        // quarter of the grid.
+        if (w, h) == (256, 170) {
+            let (ww, wh) = windows[1].size();
+            assert!(
+                4 * ww * wh < lv1.fft.width() * lv1.fft.height(),
+                "{:?}",
+                windows[1]
+            );
+        }
+    }
+}
