@@ -781,9 +781,9 @@ impl ThresholdMapper {
         acc2
     }
 
-    /// One band's contributions on `level`'s grid, in the cells of `win`, for
-    /// the image scaled by `k` (amplitude and low-pass of the unscaled image), with the error's
-    /// power share `share` in the band.
+    /// One band's contributions on `level`'s grid, in the cells of `win`, for the image scaled
+    /// by `k` (amplitude and low-pass of the unscaled image), with the error's power share
+    /// `share` in the band.
     #[allow(clippy::too_many_arguments)]
     fn eval_band(
         &self,
@@ -968,11 +968,8 @@ impl ThresholdMapper {
 /// centred at i), clamped at the borders.
 #[inline(always)]
 fn bilinear(img: &[f32], w: usize, h: usize, x: f32, y: f32) -> f32 {
-    let x = x.clamp(0.0, (w - 1) as f32);
-    let y = y.clamp(0.0, (h - 1) as f32);
-    let (x0, y0) = (x as usize, y as usize);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+    let ((x0, x1), fx) = taps(x, w);
+    let ((y0, y1), fy) = taps(y, h);
     let a = img[y0 * w + x0] * (1.0 - fx) + img[y0 * w + x1] * fx;
     let b = img[y1 * w + x0] * (1.0 - fx) + img[y1 * w + x1] * fx;
     a * (1.0 - fy) + b * fy
