@@ -798,20 +798,28 @@ impl ThresholdMapper {
     ) -> Cells {
         let lv = &self.levels[level];
         let (lw, d) = (lv.fft.width(), lv.d as f32);
-        let mut sums = Cells::zeros(win, lw, lv.fft.height());
-        sums.par_rows_mut().for_each(|(y, row)| {
-            let yf = (y as f32 + 0.5) * d;
-            for (o, x) in row.iter_mut().zip(win.x.0..) {
-                let i = y * lw + x;
-                let xf = (x as f32 + 0.5) * d;
-                let la = self.adapt_at(adapt, xf, yf);
-                let l2 = fast_log2(la.max(1e-30));
-                let s_max = self.peak.get_log2(l2);
-                let v = ctx.velocity_at(xf, yf);
-                *o = self.contribution(band, share, amp[i] * k, lp[i] * k, l2, s_max, v);
-            }
-        });
-        sums
+        // Every cell of the window is written once, in row-major order: no zeroing first.
+        let data = (win.y.0..win.y.1)
+            .into_par_iter()
+            .flat_map_iter(|y| {
+                let yf = (y as f32 + 0.5) * d;
+                (win.x.0..win.x.1).map(move |x| {
+                    let i = y * lw + x;
+                    let xf = (x as f32 + 0.5) * d;
+                    let la = self.adapt_at(adapt, xf, yf);
+                    let l2 = fast_log2(la.max(1e-30));
+                    let s_max = self.peak.get_log2(l2);
+                    let v = ctx.velocity_at(xf, yf);
+                    self.contribution(band, share, amp[i] * k, lp[i] * k, l2, s_max, v)
+                })
+            })
+            .collect();
+        Cells {
+            data,
+            win,
+            w: lw,
+            h: lv.fft.height(),
+        }
     }
 
     /// Adaptation luminance at full-canvas coordinates.
