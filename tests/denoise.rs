@@ -51,6 +51,61 @@ fn a_denoise_quality_without_denoising_is_refused() {
     );
 }
 
+/// The auxiliary images' albedo and normal of `scene`, each pixel the mean of
+/// `spp` first-surface samples at independent uniform positions in the pixel (plain jitter, the
+/// layout before 2026-11-29), under `seed`.
+fn jittered_aux(scene: &aleph::scene::Scene, spp: u32, seed: u64) -> (Vec<f32>, Vec<f32>) {
+    let w = scene.camera.width as usize;
+    let n = w * scene.camera.height as usize;
+    let (mut albedo, mut normal) = (vec![0f32; 3 * n], vec![0f32; 3 * n]);
+    for i in 0..n {
+        let (x, y) = ((i % w) as u32, (i / w) as u32);
+        for k in 0..spp as u64 {
+            let mut rng = aleph::rng::Rng::for_sample(seed, i as u64, k);
+            let ray = scene.camera_ray(seed, (x, y), k, rng.uniform2(), 0.0);
+            let (a, nn) = aleph::integrator::first_surface(scene, ray, &mut rng);
+            // As `render_aux`: an emitter's capped radiance scaled to luminance 1, then [0, 1].
+            let l = aleph::math::luminance(a);
+            let a = if l > 1.0 { a / l } else { a }.clamp(glam::Vec3::ZERO, glam::Vec3::ONE);
+            for c in 0..3 {
+                albedo[3 * i + c] += a[c] / spp as f32;
+                normal[3 * i + c] += nn[c] / spp as f32;
+            }
+        }
+    }
+    (albedo, normal)
+}
+
+/// The auxiliary images take their samples at stratified positions (each power-of-two prefix
+/// a net over the pixel) and all of `AUX_SPP` only on either side of an edge: against a 1024-sample
+/// reference (plain jitter) their albedo and normal are nearer than 16 plainly jittered samples
+/// per pixel, by more than a third in RMS (measured 3.3× / 3.0× nearer at 64², 2.9× / 2.9× at
+/// 256²); 16 plainly jittered samples at every pixel, the layout before, fail (0.94× / 1.00×).
+#[test]
+fn the_auxiliary_images_are_stratified_and_as_near_their_reference_with_fewer_samples() {
+    let mut job = aleph::job::RenderJob::new(repo("scenes/cornell-box/scene.toml"));
+    job.scene.resolution = Some([64, 64]);
+    let scene = job.load_scene().unwrap();
+    let (ref_a, ref_n) = jittered_aux(&scene, 1024, 77);
+    let (old_a, old_n) = jittered_aux(&scene, aleph::denoise::AUX_SPP, 5);
+    let aux = aleph::denoise::render_aux(&scene, aleph::denoise::AUX_SPP, 5);
+    let rms = |a: &[f32], b: &[f32]| {
+        let s: f64 = a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum();
+        (s / a.len() as f64).sqrt()
+    };
+    let (a_new, a_old) = (rms(&aux.albedo, &ref_a), rms(&old_a, &ref_a));
+    let (n_new, n_old) = (rms(&aux.normal, &ref_n), rms(&old_n, &ref_n));
+    assert!(
+        a_new < 0.67 * a_old && n_new < 0.67 * n_old,
+        "albedo RMS {a_new:.5} against plain jitter's {a_old:.5}, normal {n_new:.5} against {n_old:.5}"
+    );
+    // The same images for the same seed.
+    assert_eq!(
+        aux,
+        aleph::denoise::render_aux(&scene, aleph::denoise::AUX_SPP, 5)
+    );
+}
+
 #[cfg(feature = "denoise")]
 mod with_oidn {
     use super::*;

@@ -197,9 +197,11 @@ pub fn denoise_layers(
         "denoiser".to_string(),
         format!(
             "Intel Open Image Denoise 2.5, RT filter (hdr, {}); R,G,B denoised, Noisy the \
-             render; albedo and normal of the first non-specular surface at {} spp",
+             render; albedo and normal of the first non-specular surface at up to {} spp \
+             ({} where a pixel and its neighbours see one surface)",
             d.quality.describe(),
-            crate::denoise::AUX_SPP
+            crate::denoise::AUX_SPP,
+            crate::denoise::AUX_FIRST_SPP
         ),
     ));
 }

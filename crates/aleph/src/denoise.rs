@@ -9,7 +9,8 @@
 //! `--denoise` before rendering.
 
 use crate::film::Film;
-use crate::rng::Rng;
+use crate::rng::{Rng, mix64};
+use crate::sampler::sobol::shuffled_scrambled_sobol2d;
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -137,46 +138,148 @@ pub struct Aux {
     pub normal: Vec<f32>,
 }
 
-/// Renders the auxiliary images of `scene` with `spp` jittered samples per pixel under `seed`
-/// (deterministic for any thread count).
+/// Samples every pixel's auxiliary images take first ([`render_aux`]): the first four points of
+/// the pixel's Owen-scrambled Sobol' sequence, one in each quadrant of the pixel (and in each
+/// quarter of its width and of its height).
+pub const AUX_FIRST_SPP: u32 = 4;
+
+/// Largest difference, per channel of the albedo and per component of the normal, between the
+/// first [`AUX_FIRST_SPP`] samples of a pixel for it to count as one surface ([`render_aux`]):
+/// one step of an 8-bit albedo. Where they agree so, their mean is within it of the mean of
+/// any other samples that agree as well.
+pub const AUX_AGREE: f32 = 1.0 / 256.0;
+
+/// Renders the auxiliary images of `scene` with up to `spp` samples per pixel under `seed`
+/// (deterministic for any thread count). A pixel's positions are the points of a shuffled,
+/// Owen-scrambled 2-D Sobol' sequence of its own
+/// ([`crate::sampler::sobol::shuffled_scrambled_sobol2d`]), so every power-of-two prefix is a
+/// net over the pixel. Every pixel takes the first [`AUX_FIRST_SPP`];
+/// where those see one surface (albedo and normal agree within [`AUX_AGREE`]) and their mean
+/// agrees with the 4-neighbours' as well, it is the pixel's value; the rest, the pixels on
+/// either side of an edge, a texture's detail, glass or motion, take all `spp` ([`edges`]).
 pub fn render_aux(scene: &Scene, spp: u32, seed: u64) -> Aux {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     let seed = seed ^ AUX_SEED_XOR;
-    let mut albedo = vec![0f32; 3 * w * h];
-    let mut normal = vec![0f32; 3 * w * h];
-    albedo
-        .par_chunks_mut(3 * w)
-        .zip(normal.par_chunks_mut(3 * w))
-        .enumerate()
-        .for_each(|(y, (arow, nrow))| {
-            for x in 0..w {
-                let (a, n) = pixel_aux(scene, spp, seed, x, y);
-                arow[3 * x..3 * x + 3].copy_from_slice(&a.to_array());
-                nrow[3 * x..3 * x + 3].copy_from_slice(&n.to_array());
-            }
-        });
+    let first = spp.min(AUX_FIRST_SPP);
+    let mut px = vec![AuxSum::EMPTY; w * h];
+    px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, p) in row.iter_mut().enumerate() {
+            *p = AuxSum::of(scene, seed, y * w + x, 0..first);
+        }
+    });
+    if spp > first {
+        let near_edge = edges(&px, w, h);
+        px.par_chunks_mut(w)
+            .zip(near_edge.par_chunks(w))
+            .enumerate()
+            .for_each(|(y, (row, near))| {
+                for (x, p) in row.iter_mut().enumerate() {
+                    if near[x] {
+                        p.add(&AuxSum::of(scene, seed, y * w + x, first..spp));
+                    }
+                }
+            });
+    }
+    let mut albedo = Vec::with_capacity(3 * w * h);
+    let mut normal = Vec::with_capacity(3 * w * h);
+    for p in &px {
+        let k = p.taken.max(1) as f32;
+        albedo.extend_from_slice(&(p.albedo / k).to_array());
+        normal.extend_from_slice(&(p.normal / k).to_array());
+    }
     Aux { albedo, normal }
 }
 
-fn pixel_aux(scene: &Scene, spp: u32, seed: u64, x: usize, y: usize) -> (Vec3, Vec3) {
-    let w = scene.camera.width as usize;
-    let index = (y * w + x) as u64;
-    let (mut a, mut n) = (Vec3::ZERO, Vec3::ZERO);
-    for k in 0..spp {
-        let time = scene.sample_time(seed, index, k as u64);
-        let mut rng = Rng::for_sample(seed, index, k as u64);
-        let ray = scene.camera_ray(seed, (x as u32, y as u32), k as u64, rng.uniform2(), time);
-        let (albedo, normal) = crate::integrator::first_surface(scene, ray, &mut rng);
-        // Albedo in [0, 1] as OIDN requires: an emitter's capped radiance scaled to luminance 1.
-        let y = crate::math::luminance(albedo);
-        let albedo = if y > 1.0 { albedo / y } else { albedo };
-        if albedo.is_finite() && normal.is_finite() {
-            a += albedo.clamp(Vec3::ZERO, Vec3::ONE);
-            n += normal;
+/// Which pixels of a `w × h` image of first samples `px` take the rest of their samples: those
+/// whose samples disagree, and those whose mean differs from a 4-neighbour's (an edge that runs
+/// along the border between two pixels, which each pixel's first samples saw on one side only).
+fn edges(px: &[AuxSum], w: usize, h: usize) -> Vec<bool> {
+    let mean = |p: &AuxSum| {
+        let k = p.taken.max(1) as f32;
+        let (a, n) = (p.albedo / k, p.normal / k);
+        [a.x, a.y, a.z, n.x, n.y, n.z]
+    };
+    let means: Vec<[f32; 6]> = px.par_iter().map(mean).collect();
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let differs = |j: usize| (0..6).any(|c| (means[i][c] - means[j][c]).abs() > AUX_AGREE);
+            !px[i].uniform()
+                || (x > 0 && differs(i - 1))
+                || (x + 1 < w && differs(i + 1))
+                || (y > 0 && differs(i - w))
+                || (y + 1 < h && differs(i + w))
+        })
+        .collect()
+}
+
+/// One pixel's auxiliary samples: their sums, how many were taken, and the range of each
+/// albedo channel and normal component over them.
+#[derive(Clone, Copy, Debug)]
+struct AuxSum {
+    albedo: Vec3,
+    normal: Vec3,
+    taken: u32,
+    lo: [f32; 6],
+    hi: [f32; 6],
+}
+
+impl AuxSum {
+    const EMPTY: AuxSum = AuxSum {
+        albedo: Vec3::ZERO,
+        normal: Vec3::ZERO,
+        taken: 0,
+        lo: [f32::INFINITY; 6],
+        hi: [f32::NEG_INFINITY; 6],
+    };
+
+    /// Samples `ks` of pixel `index` (a finite sample adds to the sums; a non-finite one adds
+    /// zero and makes the pixel non-uniform).
+    fn of(scene: &Scene, seed: u64, index: usize, ks: std::ops::Range<u32>) -> AuxSum {
+        let w = scene.camera.width as usize;
+        let stream = mix64(seed ^ mix64((index as u64).wrapping_mul(0xD1B5_4A32_D192_ED03) ^ 3));
+        let (x, y) = ((index % w) as u32, (index / w) as u32);
+        let mut s = AuxSum::EMPTY;
+        for k in ks {
+            let (i, k) = (index as u64, k as u64);
+            let time = scene.sample_time(seed, i, k);
+            let u = shuffled_scrambled_sobol2d(k as u32, stream);
+            let ray = scene.camera_ray(seed, (x, y), k, u, time);
+            let mut rng = Rng::for_sample(seed, i, k);
+            let (albedo, normal) = crate::integrator::first_surface(scene, ray, &mut rng);
+            // Albedo in [0, 1] as OIDN requires: an emitter's capped radiance scaled to
+            // luminance 1.
+            let l = crate::math::luminance(albedo);
+            let albedo = if l > 1.0 { albedo / l } else { albedo };
+            s.taken += 1;
+            if !(albedo.is_finite() && normal.is_finite()) {
+                s.lo = [f32::NEG_INFINITY; 6];
+                s.hi = [f32::INFINITY; 6];
+                continue;
+            }
+            let albedo = albedo.clamp(Vec3::ZERO, Vec3::ONE);
+            s.albedo += albedo;
+            s.normal += normal;
+            let v = [albedo.x, albedo.y, albedo.z, normal.x, normal.y, normal.z];
+            for ((lo, hi), v) in s.lo.iter_mut().zip(&mut s.hi).zip(v) {
+                *lo = lo.min(v);
+                *hi = hi.max(v);
+            }
         }
+        s
     }
-    let k = spp.max(1) as f32;
-    (a / k, n / k)
+
+    /// Whether every sample saw the same albedo and normal, within [`AUX_AGREE`].
+    fn uniform(&self) -> bool {
+        (0..6).all(|c| self.hi[c] - self.lo[c] <= AUX_AGREE)
+    }
+
+    fn add(&mut self, o: &AuxSum) {
+        self.albedo += o.albedo;
+        self.normal += o.normal;
+        self.taken += o.taken;
+    }
 }
 
 /// Denoises the linear RGB radiance `rgb` (interleaved, `3 · width · height`, any positive
