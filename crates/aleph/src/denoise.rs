@@ -183,9 +183,9 @@ pub fn render_aux(scene: &Scene, spp: u32, seed: u64) -> Aux {
     let mut albedo = Vec::with_capacity(3 * w * h);
     let mut normal = Vec::with_capacity(3 * w * h);
     for p in &px {
-        let k = p.taken.max(1) as f32;
-        albedo.extend_from_slice(&(p.albedo / k).to_array());
-        normal.extend_from_slice(&(p.normal / k).to_array());
+        let (a, n) = p.mean();
+        albedo.extend_from_slice(&a.to_array());
+        normal.extend_from_slice(&n.to_array());
     }
     Aux { albedo, normal }
 }
@@ -194,12 +194,13 @@ pub fn render_aux(scene: &Scene, spp: u32, seed: u64) -> Aux {
 /// whose samples disagree, and those whose mean differs from a 4-neighbour's (an edge that runs
 /// along the border between two pixels, which each pixel's first samples saw on one side only).
 fn edges(px: &[AuxSum], w: usize, h: usize) -> Vec<bool> {
-    let mean = |p: &AuxSum| {
-        let k = p.taken.max(1) as f32;
-        let (a, n) = (p.albedo / k, p.normal / k);
-        [a.x, a.y, a.z, n.x, n.y, n.z]
-    };
-    let means: Vec<[f32; 6]> = px.par_iter().map(mean).collect();
+    let means: Vec<[f32; 6]> = px
+        .par_iter()
+        .map(|p| {
+            let (a, n) = p.mean();
+            [a.x, a.y, a.z, n.x, n.y, n.z]
+        })
+        .collect();
     (0..w * h)
         .into_par_iter()
         .map(|i| {
@@ -273,6 +274,12 @@ impl AuxSum {
     /// Whether every sample saw the same albedo and normal, within [`AUX_AGREE`].
     fn uniform(&self) -> bool {
         (0..6).all(|c| self.hi[c] - self.lo[c] <= AUX_AGREE)
+    }
+
+    /// The mean albedo and normal over the samples taken (zero if none were).
+    fn mean(&self) -> (Vec3, Vec3) {
+        let k = self.taken.max(1) as f32;
+        (self.albedo / k, self.normal / k)
     }
 
     fn add(&mut self, o: &AuxSum) {
