@@ -54,7 +54,11 @@ fn a_denoise_quality_without_denoising_is_refused() {
 /// The auxiliary images' albedo and normal of `scene`, each pixel the mean of
 /// `spp` first-surface samples at independent uniform positions in the pixel (plain jitter, the
 /// layout before 2026-11-29), under `seed`.
-fn jittered_aux(scene: &aleph::scene::Scene, spp: u32, seed: u64) -> (Vec<f32>, Vec<f32>) {
+pub(crate) fn jittered_aux(
+    scene: &aleph::scene::Scene,
+    spp: u32,
+    seed: u64,
+) -> (Vec<f32>, Vec<f32>) {
     let w = scene.camera.width as usize;
     let n = w * scene.camera.height as usize;
     let (mut albedo, mut normal) = (vec![0f32; 3 * n], vec![0f32; 3 * n]);
@@ -63,7 +67,8 @@ fn jittered_aux(scene: &aleph::scene::Scene, spp: u32, seed: u64) -> (Vec<f32>, 
         for k in 0..spp as u64 {
             let mut rng = aleph::rng::Rng::for_sample(seed, i as u64, k);
             let ray = scene.camera_ray(seed, (x, y), k, rng.uniform2(), 0.0);
-            let (a, nn) = aleph::integrator::first_surface(scene, ray, &mut rng);
+            let first = aleph::integrator::first_surface(scene, ray, &mut rng);
+            let (a, nn) = (first.albedo, first.normal);
             // As `render_aux`: an emitter's capped radiance scaled to luminance 1, then [0, 1].
             let l = aleph::math::luminance(a);
             let a = if l > 1.0 { a / l } else { a }.clamp(glam::Vec3::ZERO, glam::Vec3::ONE);
@@ -103,6 +108,37 @@ fn the_auxiliary_images_are_stratified_and_as_near_their_reference_with_fewer_sa
     assert_eq!(
         aux,
         aleph::denoise::render_aux(&scene, aleph::denoise::AUX_SPP, 5)
+    );
+}
+
+/// On a textured scene the auxiliary images take all `AUX_SPP` samples only where a texture
+/// changes sharply within a pixel: on the holodeck (its walls one textured material under a
+/// grid of thin lines) a pixel whose first 4 samples agree in normal and within
+/// `AUX_TEXTURE_AGREE` in albedo keeps them. Measured at 128×85: 83 % of the samples of 16 in
+/// every pixel, where the layout before (every channel within one 8-bit step) took 94 %, and the
+/// albedo 3.6× and the normal 2.0× nearer a 1024-sample reference than 16 plainly jittered
+/// samples (the layout before: 0.00991 against 0.00998 albedo RMS now, the normal the same).
+#[test]
+fn a_textured_surface_keeps_its_first_auxiliary_samples_where_its_texture_changes_little() {
+    let mut job = aleph::job::RenderJob::new(repo("scenes/holodeck/scene.toml"));
+    job.scene.resolution = Some([128, 85]);
+    let scene = job.load_scene().unwrap();
+    let spp = aleph::denoise::AUX_SPP;
+    let (ref_a, ref_n) = jittered_aux(&scene, 1024, 77);
+    let (plain_a, plain_n) = jittered_aux(&scene, spp, 5);
+    let (aux, taken) = aleph::denoise::render_aux_counted(&scene, spp, 5);
+    let rms = |a: &[f32], b: &[f32]| {
+        let s: f64 = a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum();
+        (s / a.len() as f64).sqrt()
+    };
+    let share = taken as f64 / (spp as f64 * 128.0 * 85.0);
+    let (a, a_plain) = (rms(&aux.albedo, &ref_a), rms(&plain_a, &ref_a));
+    let (n, n_plain) = (rms(&aux.normal, &ref_n), rms(&plain_n, &ref_n));
+    eprintln!("share {share:.3}, albedo {a:.5} / {a_plain:.5}, normal {n:.5} / {n_plain:.5}");
+    assert!(share < 0.9, "took {share:.3} of {spp} samples a pixel");
+    assert!(
+        a < 0.5 * a_plain && n < 0.67 * n_plain,
+        "albedo RMS {a:.5} against plain jitter's {a_plain:.5}, normal {n:.5} against {n_plain:.5}"
     );
 }
 

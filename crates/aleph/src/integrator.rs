@@ -214,22 +214,39 @@ fn capped(le: Vec3) -> Vec3 {
 /// reports the environment and suns seen there, capped the same way. Uses `rng` only for the
 /// choice at dielectrics (reflect or refract by Fresnel).
 pub fn albedo(scene: &Scene, ray: Ray, rng: &mut impl Sampler) -> Vec3 {
-    first_surface(scene, ray, rng).0
+    first_surface(scene, ray, rng).albedo
 }
 
-/// [`albedo`] and the interpolated normal (before bump mapping) of the surface it reports
-/// (world space, facing the ray;
-/// zero for a miss or a path lost among specular bounces): the albedo and normal auxiliary
-/// images a denoiser takes (Open Image Denoise's, as Cycles' "Denoising Albedo" and
-/// "Denoising Normal" passes).
-pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> (Vec3, Vec3) {
+/// What [`first_surface`] found along a camera ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstSurface {
+    /// [`albedo`]'s value.
+    pub albedo: Vec3,
+    /// The interpolated normal (before bump mapping) of the surface reported, world space,
+    /// facing the ray; zero for a miss or a path lost among specular bounces.
+    pub normal: Vec3,
+    /// The index into `scene.materials` of that surface's material when its colours come from
+    /// a texture ([`crate::material::Material::is_textured`]) and it is not an emitter seen
+    /// directly; `None` otherwise (an untextured surface, an emitter, a miss).
+    pub textured: Option<u32>,
+}
+
+/// [`albedo`] and the normal of the surface it reports: the albedo and normal auxiliary images
+/// a denoiser takes (Open Image Denoise's, as Cycles' "Denoising Albedo" and "Denoising
+/// Normal" passes), and whether that surface is textured.
+pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> FirstSurface {
     use crate::bsdf::Bsdf;
     let mut weight = Vec3::ONE;
     let mut cone = Cone::camera(scene);
+    let surface = |albedo: Vec3, normal: Vec3, textured: Option<u32>| FirstSurface {
+        albedo,
+        normal,
+        textured,
+    };
     for _ in 0..8 {
         let Some(hit) = scene.geometry.intersect(&ray) else {
             let sky = capped(scene.lights.infinite_radiance_unweighted(ray.d));
-            return (weight * sky, Vec3::ZERO);
+            return surface(weight * sky, Vec3::ZERO, None);
         };
         let facing = if ray.d.dot(hit.ns) > 0.0 {
             -hit.ns
@@ -237,19 +254,19 @@ pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> (Ve
             hit.ns
         };
         let tris = &scene.geometry.tris;
-        let material = &scene.materials[tris.material(hit.tri as usize) as usize];
+        let index = tris.material(hit.tri as usize);
+        let material = &scene.materials[index as usize];
         let footprint = cone.footprint(scene, &hit, ray.d, ray.time, material);
         if tris.light(hit.tri as usize) != u32::MAX && -ray.d.dot(hit.ng) > 0.0 {
-            return (
-                weight * capped(material.emitted(hit.uv, footprint, &scene.textures)),
-                facing,
-            );
+            let le = capped(material.emitted(hit.uv, footprint, &scene.textures));
+            return surface(weight * le, facing, None);
         }
         let bsdf = material.bsdf(hit.uv, footprint, &scene.textures);
         cone = cone.through(&hit);
+        let textured = material.is_textured().then_some(index);
         match bsdf {
-            Bsdf::Lambert(l) => return (weight * l.reflectance, facing),
-            Bsdf::Glossy(g) => return (weight * (g.kd + g.ks), facing),
+            Bsdf::Lambert(l) => return surface(weight * l.reflectance, facing, textured),
+            Bsdf::Glossy(g) => return surface(weight * (g.kd + g.ks), facing, textured),
             Bsdf::Mirror(_) | Bsdf::Dielectric(_) => {
                 let ns = if !bsdf.is_transmissive() && ray.d.dot(hit.ng) > 0.0 {
                     -hit.ns
@@ -259,7 +276,7 @@ pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> (Ve
                 let frame = Frame::from_normal(ns);
                 let wo = frame.to_local(-ray.d);
                 let Some(s) = bsdf.sample(wo, rng.uniform(), rng.uniform2()) else {
-                    return (Vec3::ZERO, Vec3::ZERO);
+                    return surface(Vec3::ZERO, Vec3::ZERO, None);
                 };
                 weight *= s.f * s.wi.z.abs() / s.pdf;
                 let wi = frame.from_local(s.wi);
@@ -272,7 +289,7 @@ pub fn first_surface(scene: &Scene, mut ray: Ray, rng: &mut impl Sampler) -> (Ve
             }
         }
     }
-    (Vec3::ZERO, Vec3::ZERO)
+    surface(Vec3::ZERO, Vec3::ZERO, None)
 }
 
 /// The shading normal at `hit` with the material's bump or normal map applied: the map's
