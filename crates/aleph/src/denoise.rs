@@ -226,14 +226,10 @@ fn edges(px: &[AuxSum], w: usize, h: usize) -> Vec<bool> {
                 let one_texture = px[i]
                     .one_texture()
                     .is_some_and(|m| px[j].one_texture() == Some(m));
-                let tol = if one_texture {
-                    AUX_TEXTURE_AGREE
-                } else {
-                    AUX_AGREE
-                };
-                (0..6).any(|c| {
-                    (means[i][c] - means[j][c]).abs() > if c < 3 { tol } else { AUX_AGREE }
-                })
+                !one_surface(
+                    std::array::from_fn(|c| (means[i][c] - means[j][c]).abs()),
+                    one_texture,
+                )
             };
             !px[i].uniform()
                 || (x > 0 && differs(i - 1))
@@ -242,6 +238,20 @@ fn edges(px: &[AuxSum], w: usize, h: usize) -> Vec<bool> {
                 || (y + 1 < h && differs(i + w))
         })
         .collect()
+}
+
+/// Whether differences `d` (per albedo channel, then per normal component) are those of one
+/// surface: each within [`AUX_AGREE`], the albedo's within [`AUX_TEXTURE_AGREE`] on one textured
+/// material (`textured`).
+fn one_surface(d: [f32; 6], textured: bool) -> bool {
+    (0..6).all(|c| {
+        let tol = if textured && c < 3 {
+            AUX_TEXTURE_AGREE
+        } else {
+            AUX_AGREE
+        };
+        d[c] <= tol
+    })
 }
 
 /// One pixel's auxiliary samples: their sums, how many were taken, the range of each albedo
@@ -326,12 +336,8 @@ impl AuxSum {
     /// Whether every sample saw one surface: the same normal within [`AUX_AGREE`], and the
     /// same albedo within it, or within [`AUX_TEXTURE_AGREE`] on one textured material.
     fn uniform(&self) -> bool {
-        let tol = if self.one_texture().is_some() {
-            AUX_TEXTURE_AGREE
-        } else {
-            AUX_AGREE
-        };
-        (0..6).all(|c| self.hi[c] - self.lo[c] <= if c < 3 { tol } else { AUX_AGREE })
+        let spread = std::array::from_fn(|c| self.hi[c] - self.lo[c]);
+        one_surface(spread, self.one_texture().is_some())
     }
 
     /// The mean albedo and normal over the samples taken (zero if none were).
@@ -340,13 +346,12 @@ impl AuxSum {
         (self.albedo / k, self.normal / k)
     }
 
+    /// Adds `o`'s sums and count (what the pixel's mean needs; the ranges and the material
+    /// are read only by [`edges`], before any pixel takes more samples).
     fn add(&mut self, o: &AuxSum) {
         self.albedo += o.albedo;
         self.normal += o.normal;
         self.taken += o.taken;
-        if o.material != AuxSum::NONE_YET {
-            self.saw(o.one_texture());
-        }
     }
 }
 
