@@ -337,6 +337,80 @@ mod with_oidn {
         );
     }
 
+    #[test]
+    fn above_16_spp_the_noisy_image_is_blended_back_by_the_errors_and_nearer_the_truth() {
+        // The holodeck at 96 × 64 and 64 spp: the denoiser (its high model; the auxiliary
+        // images have 16 spp) blurs the grid's thin lines and keeps a grain of its own where
+        // the raw image is nearly clean. The result blends the raw image back in by the two
+        // images' estimated errors (aleph::denoise::Denoised::blend_with_noisy) and must be
+        // nearer a 512-spp reference than the denoiser's output alone in more pixels than
+        // chance gives, by each pixel's relative squared error (the sum over R, G, B of
+        // (a − b)² / (b² + 0.01)); the reference's own noise adds the same expected term to
+        // both. (Measured 2026-11-30: nearer in 3620 pixels, farther in 2523, z = 14.0; relMSE raw
+        // 0.000289, denoised 0.000417, blended 0.000364.)
+        let d = tempdir();
+        let scene = repo("scenes/holodeck/scene.toml");
+        let run = |stem: &str, spp: &str, extra: &[&str]| {
+            let mut args = vec!["render", scene.to_str().unwrap(), "--sampler", "uniform"];
+            args.extend(["--resolution", "96x64", "--spp", spp, "-o", stem]);
+            args.extend(extra);
+            let o = aleph(&args, d.path());
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let said = String::from_utf8_lossy(&o.stdout).into_owned();
+            (
+                read_exr_raw(&d.path().join(format!("{stem}.exr"))).unwrap(),
+                said,
+            )
+        };
+        let (blended, said) = run("b", "64", &["--denoise"]);
+        let (reference, _) = run("r", "512", &[]);
+        assert!(said.contains("blended with the noisy image"), "{said}");
+        assert!(blended.text["denoiser"].contains("blended with Noisy"));
+        let noisy = interleaved(&blended, "Noisy.", ["R", "G", "B"]);
+        let aux = aleph::denoise::Aux {
+            albedo: interleaved(&blended, "Denoising Albedo.", ["R", "G", "B"]),
+            normal: interleaved(&blended, "Denoising Normal.", ["X", "Y", "Z"]),
+        };
+        use aleph::denoise::{Quality, denoise_with};
+        let alone = denoise_with(&noisy, 96, 64, &aux, Quality::High).unwrap();
+        let shown = interleaved(&blended, "", ["R", "G", "B"]);
+        let truth = interleaved(&reference, "", ["R", "G", "B"]);
+        let err = |img: &[f32]| -> Vec<f64> {
+            img.chunks_exact(3)
+                .zip(truth.chunks_exact(3))
+                .map(|(a, b)| {
+                    a.iter()
+                        .zip(b)
+                        .map(|(&a, &b)| (a as f64 - b as f64).powi(2) / ((b as f64).powi(2) + 0.01))
+                        .sum()
+                })
+                .collect()
+        };
+        let (e_blend, e_alone, e_raw) = (err(&shown), err(&alone), err(&noisy));
+        // A sign test: pixels nearer the reference than the denoiser's output alone against
+        // those farther (ties, where the result is the denoiser's, left out); under the
+        // hypothesis that keeping the raw image does not help, each is nearer with
+        // probability ½. (The mean of the differences is no test here: a few pixels at the
+        // light's edge carry most of it.)
+        let (nearer, farther) = e_blend.iter().zip(&e_alone).fold((0, 0), |(n, f), (a, b)| {
+            (n + (a < b) as u32, f + (a > b) as u32)
+        });
+        let m = (nearer + farther) as f64;
+        let z = (nearer as f64 - m / 2.0) / (m / 4.0).sqrt();
+        let rel = |e: &[f64]| e.iter().sum::<f64>() / (3.0 * e.len() as f64);
+        eprintln!(
+            "relMSE against 512 spp: raw {:.6}, denoised {:.6}, blended {:.6}; nearer than \
+             the denoised in {nearer} pixels, farther in {farther}: z = {z:.1}",
+            rel(&e_raw),
+            rel(&e_alone),
+            rel(&e_blend)
+        );
+        assert!(
+            z > 3.0,
+            "the blended image is not nearer the reference: z = {z}"
+        );
+    }
+
     /// Mean of |v| over each `b × b` block of a `w`-wide image.
     fn blocks(v: &[f32], w: usize, b: usize) -> Vec<f32> {
         let h = v.len() / w;

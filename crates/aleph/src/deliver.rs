@@ -193,11 +193,20 @@ pub fn denoise_layers(
             extra.push((format!("{layer}.{name}"), ChannelData::F32(plane)));
         }
     }
+    let kept = if d.noisy_weight > 0.0 {
+        format!(
+            ", blended with Noisy by inverse squared estimated error (Noisy's mean weight \
+             {:.4})",
+            d.noisy_weight
+        )
+    } else {
+        String::new()
+    };
     attributes.push((
         "denoiser".to_string(),
         format!(
-            "Intel Open Image Denoise 2.5, RT filter (hdr, {}); R,G,B denoised, Noisy the \
-             render; albedo and normal of the first non-specular surface at up to {} spp \
+            "Intel Open Image Denoise 2.5, RT filter (hdr, {}); R,G,B denoised{kept}, Noisy \
+             the render; albedo and normal of the first non-specular surface at up to {} spp \
              ({} where a pixel and its neighbours see one surface)",
             d.quality.describe(),
             crate::denoise::AUX_SPP,

@@ -569,7 +569,8 @@ fn run_oidn(_: &[f32], _: (usize, usize), _: &Aux, _: Quality) -> Result<Vec<f32
 /// auxiliary images the denoiser was given.
 #[derive(Clone, Debug)]
 pub struct Denoised {
-    /// The denoised radiance.
+    /// The denoised radiance (interleaved RGB), blended with `noisy` by their estimated
+    /// errors above [`BLEND_ABOVE_SPP`] ([`Denoised::blend_with_noisy`]).
     pub rgb: Vec<f32>,
     /// The render before denoising.
     pub noisy: Vec<f32>,
@@ -577,6 +578,9 @@ pub struct Denoised {
     pub aux: Aux,
     /// The model that denoised it ([`Quality::chosen`]).
     pub quality: Quality,
+    /// The noisy image's mean weight in `rgb` over the pixels, in [0, 1]: 0 where `rgb` is the
+    /// denoiser's output alone, as it is until [`Denoised::blend_with_noisy`].
+    pub noisy_weight: f64,
 }
 
 /// Denoises `noisy`, the radiance of a render of `scene` (its current frame) of `spp` samples
@@ -620,8 +624,100 @@ impl Denoised {
             noisy,
             aux,
             quality,
+            noisy_weight: 0.0,
         })
     }
+
+    /// Blends the noisy render back into the denoised one, pixel by pixel, by the inverse of
+    /// each one's estimated squared error, where the render has more than
+    /// [`BLEND_ABOVE_SPP`] samples per pixel (mean; `spp`); below, nothing changes. `film` is
+    /// the render the noisy image is the mean of (its half-buffers give the noisy image's
+    /// error; a frame's own samples, not a reusing frame's).
+    ///
+    /// The two errors, in luminance and each averaged over 3 × 3 pixels: the noisy image's,
+    /// the half-buffers' difference (e_n² = (k (Y(A) − Y(B)))², its variance); the denoised
+    /// image's, its residual against the noisy one averaged over
+    /// (2 · [`BIAS_RADIUS`] + 1)² pixels (e_d² = box(Y(F) − Y(D(F)))²), where the noise
+    /// cancels and what the filter took away or added systematically remains: the detail the
+    /// auxiliary images do not show (sub-pixel texture, soft shadows) and the filter's own
+    /// grain on a nearly clean input. The noisy image's share is e_d² / (e_d² + e_n²) (1
+    /// where both are 0), the minimum-variance combination of two estimates with independent
+    /// errors; the denoiser's own variance is left out (it would take two more filter runs,
+    /// [`DenoisedError`]). Measured (docs/denoise.md, 256², 2048-spp references, as
+    /// displayed): the holodeck's FLIP mean at 32 / 64 spp 0.0630 / 0.0518 → 0.0609 / 0.0503,
+    /// at its stop with the denoiser (697.6 spp) 0.0307 → 0.0284 and ColorVideoVDP JOD 9.961
+    /// → 9.991; the Cornell box, the Mori knob and Lost Empire within 0.0002 of FLIP mean
+    /// and 0.003 JOD. Below 16 spp the same blend lost (the Cornell box at 4 spp: JOD 9.798 →
+    /// 9.726; the holodeck 9.721 → 9.594): the residual still carries the noise there.
+    ///
+    /// # Panics
+    /// If the film's size differs from the image's.
+    pub fn blend_with_noisy(&mut self, film: &Film, spp: f64) {
+        if spp > BLEND_ABOVE_SPP as f64 {
+            let share = noisy_shares(film, &self.noisy, &self.rgb);
+            self.blend(&share);
+        }
+    }
+
+    /// Each pixel becomes noisy + (1 − s) · (denoised − noisy) for its noisy share s in
+    /// `share` (row-major, in [0, 1]); [`Denoised::noisy_weight`] is their mean.
+    ///
+    /// # Panics
+    /// If `share` does not hold one value per pixel.
+    pub fn blend(&mut self, share: &[f32]) {
+        assert_eq!(3 * share.len(), self.rgb.len(), "one share per pixel");
+        self.rgb
+            .par_chunks_exact_mut(3)
+            .zip(self.noisy.par_chunks_exact(3))
+            .zip(share.par_iter())
+            .for_each(|((d, n), &k)| {
+                if k >= 1.0 {
+                    d.copy_from_slice(n);
+                } else if k > 0.0 {
+                    for (d, &n) in d.iter_mut().zip(n) {
+                        *d = n + (1.0 - k) * (*d - n);
+                    }
+                }
+            });
+        self.noisy_weight =
+            share.iter().map(|&k| k as f64).sum::<f64>() / share.len().max(1) as f64;
+    }
+}
+
+/// Mean samples per pixel above which [`Denoised::blend_with_noisy`] blends: the auxiliary
+/// images' [`AUX_SPP`], from where the result is denoised without `cleanAux`
+/// ([`Quality::final_for`]).
+pub const BLEND_ABOVE_SPP: u32 = AUX_SPP;
+
+/// The noisy image's share of each pixel in [`Denoised::blend_with_noisy`] (row-major), from
+/// `film`, its mean `noisy` and the denoised image `denoised` (interleaved RGB).
+fn noisy_shares(film: &Film, noisy: &[f32], denoised: &[f32]) -> Vec<f32> {
+    let (w, h) = (film.width as usize, film.height as usize);
+    assert_eq!(3 * w * h, noisy.len(), "the film is the noisy image's");
+    assert_eq!(noisy.len(), denoised.len());
+    let residual: Vec<f32> = noisy
+        .par_chunks_exact(3)
+        .zip(denoised.par_chunks_exact(3))
+        .map(|(f, d)| y(f) - y(d))
+        .collect();
+    let bias = crate::imaging::box_mean(&residual, w, h, BIAS_RADIUS);
+    let e_d: Vec<f32> = bias.par_iter().map(|b| b * b).collect();
+    let (a, b) = (film.mean_rgb_even(), film.mean_rgb_odd());
+    let e_n: Vec<f32> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let d = film.difference_scale(i) as f32 * (y(&a[3 * i..]) - y(&b[3 * i..]));
+            d * d
+        })
+        .collect();
+    let (e_d, e_n) = (
+        crate::imaging::box_mean(&e_d, w, h, 1),
+        crate::imaging::box_mean(&e_n, w, h, 1),
+    );
+    e_d.par_iter()
+        .zip(e_n.par_iter())
+        .map(|(&d, &n)| if d + n > 0.0 { d / (d + n) } else { 1.0 })
+        .collect()
 }
 
 /// Radius of the box over which the denoiser's residual is averaged into its bias estimate
@@ -725,4 +821,90 @@ pub fn denoised_error(film: &Film, aux: &Aux) -> Result<DenoisedError, DenoiseEr
         .map(f32::abs)
         .collect();
     Ok(DenoisedError { difference, bias })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_blend_takes_each_pixel_s_noisy_share_and_keeps_the_noisy_bits_at_one() {
+        let share = [1.0, 0.5, 0.25, 0.0];
+        let noisy: Vec<f32> = (0..12).map(|i| 0.1 * i as f32).collect();
+        let denoised: Vec<f32> = noisy.iter().map(|v| v + 1.0).collect();
+        let mut d = Denoised {
+            rgb: denoised.clone(),
+            noisy: noisy.clone(),
+            aux: Aux {
+                albedo: vec![0.5; 12],
+                normal: vec![0.0; 12],
+            },
+            quality: Quality::High,
+            noisy_weight: 0.0,
+        };
+        d.blend(&share);
+        for (i, &k) in share.iter().enumerate() {
+            for c in 3 * i..3 * i + 3 {
+                let want = noisy[c] + (1.0 - k) * (denoised[c] - noisy[c]);
+                assert!(
+                    (d.rgb[c] - want).abs() < 1e-6,
+                    "pixel {i}: {} against {want}",
+                    d.rgb[c]
+                );
+            }
+        }
+        assert!((0..3).all(|c| d.rgb[c].to_bits() == noisy[c].to_bits()));
+        assert!((d.noisy_weight - 0.4375).abs() < 1e-9, "{}", d.noisy_weight);
+        assert_eq!(d.noisy, noisy);
+    }
+
+    #[test]
+    fn the_noisy_share_weighs_the_two_images_by_their_estimated_squared_errors() {
+        use glam::Vec3;
+        // Grey pixels (Y = the grey level), 9 × 9, every pixel alike so every box mean is
+        // exact. Halves of 0.5 and 1.5 (the noisy image 1): e_n = (½ (0.5 − 1.5))² = ¼.
+        let film_of = |a: f32, b: f32| {
+            let mut film = Film::new(9, 9);
+            for p in film.pixels.iter_mut() {
+                for _ in 0..8 {
+                    p.add(Vec3::splat(a));
+                    p.add(Vec3::splat(b));
+                }
+            }
+            film
+        };
+        let noisy = vec![1.0f32; 3 * 81];
+        let shifted = |by: f32| -> Vec<f32> { noisy.iter().map(|v| v - by).collect() };
+        let noisy_film = film_of(0.5, 1.5);
+        // The denoiser changed nothing: its error estimate is 0, the noisy image's share 0.
+        let s = noisy_shares(&noisy_film, &noisy, &noisy);
+        assert!(s.iter().all(|&k| k == 0.0), "{:?}", &s[..3]);
+        // It moved every pixel by ½: e_d = ¼ = e_n, half each.
+        let s = noisy_shares(&noisy_film, &noisy, &shifted(0.5));
+        assert!(s.iter().all(|&k| (k - 0.5).abs() < 1e-6), "{:?}", &s[..3]);
+        // By 1.5: e_d = 9/4, the noisy image's share 0.9.
+        let s = noisy_shares(&noisy_film, &noisy, &shifted(1.5));
+        assert!(s.iter().all(|&k| (k - 0.9).abs() < 1e-6), "{:?}", &s[..3]);
+        // Halves that agree (no noise): the noisy image whatever the denoiser did.
+        let clean = film_of(1.0, 1.0);
+        let s = noisy_shares(&clean, &noisy, &shifted(0.01));
+        assert!(s.iter().all(|&k| k == 1.0), "{:?}", &s[..3]);
+        let s = noisy_shares(&clean, &noisy, &noisy);
+        assert!(s.iter().all(|&k| k == 1.0), "{:?}", &s[..3]);
+        // Nothing changes at or below 16 spp (the film's mean, as the caller gives it).
+        let mut d = Denoised {
+            rgb: shifted(0.5),
+            noisy: noisy.clone(),
+            aux: Aux {
+                albedo: vec![0.5; 3 * 81],
+                normal: vec![0.0; 3 * 81],
+            },
+            quality: Quality::High,
+            noisy_weight: 0.0,
+        };
+        d.blend_with_noisy(&noisy_film, 16.0);
+        assert_eq!(d.rgb, shifted(0.5));
+        d.blend_with_noisy(&noisy_film, 16.5);
+        assert!(d.rgb.iter().all(|&v| (v - 0.75).abs() < 1e-6));
+    }
 }

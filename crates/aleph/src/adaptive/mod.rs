@@ -881,6 +881,8 @@ fn render_with_hooks(
             r.mean_spp(),
             s.denoise_quality,
         )?;
+        let mut denoised = denoised;
+        denoised.blend_with_noisy(&r.film, r.mean_spp());
         r.denoise_time += t.elapsed();
         r.wall += aux_time + t.elapsed();
         r.denoised = Some(denoised);

@@ -281,12 +281,18 @@ impl Frame<'_> {
             (None, true) => {
                 let reused = result.reuse.as_ref().map_or(0.0, |r| r.mean_history_spp);
                 let spp = result.mean_spp() + reused;
-                Some(crate::denoise::denoise_render(
+                let mut d = crate::denoise::denoise_render(
                     scene,
                     result.film.mean_rgb(),
                     spp,
                     job.output.denoise_quality,
-                )?)
+                )?;
+                // Not a frame that reused earlier frames: its film's half-buffers do not hold
+                // the reused samples' error.
+                if result.reuse.is_none() {
+                    d.blend_with_noisy(&result.film, spp);
+                }
+                Some(d)
             }
             _ => None,
         };
@@ -310,6 +316,13 @@ impl Frame<'_> {
             denoised,
         )?;
         let words = match denoised {
+            Some(d) if d.noisy_weight > 0.0 => format!(
+                "{}; denoised by Open Image Denoise in {denoise_s:.2} s, blended with the \
+                 noisy image by their estimated errors (the noisy image {:.1} % of the \
+                 weight)",
+                w.look,
+                100.0 * d.noisy_weight
+            ),
             Some(_) => format!(
                 "{}; denoised by Open Image Denoise in {denoise_s:.2} s",
                 w.look
