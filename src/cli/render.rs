@@ -129,8 +129,8 @@ pub struct SamplingArgs {
     )]
     pub visibility: VisibilityArg,
     /// Fraction of pixels below threshold at which a render without --spp stops (default: 0.8
-    /// for the perceptual sampler on a still, 0.995 with --denoise, for a sequence's frames and
-    /// for the variance sampler). A budget's even fill does not depend on it.
+    /// for the perceptual sampler on a still, with --denoise or not; 0.995 for a sequence's
+    /// frames and for the variance sampler). A budget's even fill does not depend on it.
     #[arg(long, value_name = "F", help_heading = "Adaptive sampling")]
     pub converged: Option<f64>,
     /// Noise threshold of the variance sampler (Cycles' default 0.01).

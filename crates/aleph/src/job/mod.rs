@@ -347,14 +347,18 @@ impl Default for OutputSpec {
 /// passes are within 0.61–0.66 / 0.37–0.40×.
 pub const DENOISED_STOP_MIN_SPP: u32 = 32;
 
-/// The converged fraction of the stop with the denoiser in its loop and of a sequence's
-/// frames (without a budget), where the still's lower default
-/// ([`crate::adaptive::DEFAULT_CONVERGED_FRACTION`]) was not measured to pay. With the
-/// denoiser it would end the stop after its 32-spp first pass on the Mori knob and the Cornell
-/// box at 256² (96–97 % of the pixels converged there): on the Mori knob (256×170) JOD 9.944
-/// against 9.970 for 37.1 spp at 99.5 %, so uniform renders without the denoiser reach it at
-/// about 40 spp instead of 64 (1.25× against 1.72× the samples); on the box 9.921 against
-/// 9.923 (docs/benchmarks.md, "The stop's tail").
+/// The converged fraction of a sequence's frames (without a budget), where the still's lower
+/// default ([`crate::adaptive::DEFAULT_CONVERGED_FRACTION`]) was not measured to pay.
+///
+/// The stop with the denoiser in its loop kept it too until 2026-11-30, for its samples: at
+/// the still's 80 % it ends after its 32-spp first pass on the Mori knob, the Cornell box and
+/// Lost Empire at 256² (96–97 % of the pixels converged there), and on the Mori knob scored
+/// JOD 9.944 against 9.970 at 36.2 spp, which uniform renders without the denoiser reach at
+/// about 46 spp instead of 59. In time it lost: the Mori knob's stop at 99.5 % took 1.02× the
+/// wall time of uniform at its JOD (`farm-bench`, 5 pairs), at 80 % 0.96×; and the holodeck's
+/// ran to 697.6 spp in 66 s (98.5 % of its pixels at the 4096-spp cap) where at 80 % it stops
+/// at 217 spp in 21 s with JOD 9.958, which uniform reaches at about 400 spp
+/// (docs/denoise.md, "The stop with the denoiser at 80 %"). It now takes the still's default.
 pub const KEPT_CONVERGED_FRACTION: f64 = 0.995;
 
 /// First-pass samples per pixel of a preview (the fewest the half-buffer estimate needs).
@@ -723,12 +727,12 @@ impl RenderJob {
     }
 
     /// The stop's converged fraction: the job's, or when it names none the rule's own
-    /// ([`Criterion::default_converged_fraction`]) for a still, [`KEPT_CONVERGED_FRACTION`]
-    /// with the denoiser or for a frame of a `sequence`.
+    /// ([`Criterion::default_converged_fraction`]) for a still, with the denoiser or not,
+    /// [`KEPT_CONVERGED_FRACTION`] for a frame of a `sequence`.
     fn converged_fraction(&self, sequence: bool) -> f64 {
         match self.sampling.converged_fraction {
             Some(f) => f,
-            None if self.denoises() || sequence => KEPT_CONVERGED_FRACTION,
+            None if sequence => KEPT_CONVERGED_FRACTION,
             None => self.criterion.default_converged_fraction(),
         }
     }
