@@ -170,6 +170,16 @@ mod with_oidn {
         read_exr_raw(&dir.join(format!("{stem}.exr"))).unwrap()
     }
 
+    /// Runs `aleph` with `args` (naming its output `-o STEM`) in `dir`, which must succeed;
+    /// returns the EXR it wrote and what it printed.
+    fn run_exr(dir: &Path, args: &[&str]) -> (aleph::imageio::RawExr, String) {
+        let o = aleph(args, dir);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stem = args[args.iter().position(|a| *a == "-o").unwrap() + 1];
+        let exr = read_exr_raw(&dir.join(format!("{stem}.exr"))).unwrap();
+        (exr, String::from_utf8_lossy(&o.stdout).into_owned())
+    }
+
     fn channel<'a>(raw: &'a aleph::imageio::RawExr, name: &str) -> &'a [f32] {
         raw.f32s
             .get(name)
@@ -354,13 +364,7 @@ mod with_oidn {
             let mut args = vec!["render", scene.to_str().unwrap(), "--sampler", "uniform"];
             args.extend(["--resolution", "96x64", "--spp", spp, "-o", stem]);
             args.extend(extra);
-            let o = aleph(&args, d.path());
-            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-            let said = String::from_utf8_lossy(&o.stdout).into_owned();
-            (
-                read_exr_raw(&d.path().join(format!("{stem}.exr"))).unwrap(),
-                said,
-            )
+            run_exr(d.path(), &args)
         };
         let (blended, said) = run("b", "64", &["--denoise"]);
         let (reference, _) = run("r", "512", &[]);
@@ -513,13 +517,7 @@ mod with_oidn {
                 stem,
             ];
             args.extend(extra);
-            let o = aleph(&args, d.path());
-            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-            let said = String::from_utf8_lossy(&o.stdout).into_owned();
-            (
-                read_exr_raw(&d.path().join(format!("{stem}.exr"))).unwrap(),
-                said,
-            )
+            run_exr(d.path(), &args)
         };
         let (perceptual, said) = run("p", &[]);
         assert!(

@@ -874,14 +874,14 @@ fn render_with_hooks(
     if s.denoise {
         let t = Instant::now();
         // The refinements were denoised by the fast model; the result by the one the job asks.
-        let denoised = Denoised::of(
+        let mut denoised = Denoised::of(
             scene,
             r.film.mean_rgb(),
             hooks.take_aux(),
             r.mean_spp(),
             s.denoise_quality,
         )?;
-        let mut denoised = denoised;
+        // Above 16 spp, the raw render blended back by the two images' errors.
         denoised.blend_with_noisy(&r.film, r.mean_spp());
         r.denoise_time += t.elapsed();
         r.wall += aux_time + t.elapsed();
