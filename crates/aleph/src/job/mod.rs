@@ -357,8 +357,9 @@ pub const DENOISED_STOP_MIN_SPP: u32 = 32;
 /// about 46 spp instead of 59. In time it lost: the Mori knob's stop at 99.5 % took 1.02× the
 /// wall time of uniform at its JOD (`farm-bench`, 5 pairs), at 80 % 0.96×; and the holodeck's
 /// ran to 697.6 spp in 66 s (98.5 % of its pixels at the 4096-spp cap) where at 80 % it stops
-/// at 217 spp in 21 s with JOD 9.958, which uniform reaches at about 400 spp
-/// (docs/denoise.md, "The stop with the denoiser at 80 %"). It now takes the still's default.
+/// at 217 spp in 21 s with JOD 9.958, which uniform reaches at about 400 spp in 1.68× that
+/// time (3 pairs) (docs/denoise.md, "The stop with the denoiser at 80 %"). It now takes the
+/// still's default.
 pub const KEPT_CONVERGED_FRACTION: f64 = 0.995;
 
 /// First-pass samples per pixel of a preview (the fewest the half-buffer estimate needs).
