@@ -702,11 +702,13 @@ fn noisy_shares(film: &Film, noisy: &[f32], denoised: &[f32]) -> Vec<f32> {
         .collect();
     let bias = crate::imaging::box_mean(&residual, w, h, BIAS_RADIUS);
     let e_d: Vec<f32> = bias.par_iter().map(|b| b * b).collect();
-    let (a, b) = (film.mean_rgb_even(), film.mean_rgb_odd());
+    // Each pixel's half-buffer means read once, in parallel (not as two whole images).
     let e_n: Vec<f32> = (0..w * h)
         .into_par_iter()
         .map(|i| {
-            let d = film.difference_scale(i) as f32 * (y(&a[3 * i..]) - y(&b[3 * i..]));
+            let (a, b, _) = film.means(i);
+            let (a, b) = (a.as_vec3().to_array(), b.as_vec3().to_array());
+            let d = film.difference_scale(i) as f32 * (y(&a) - y(&b));
             d * d
         })
         .collect();
